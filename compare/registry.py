@@ -1,0 +1,396 @@
+"""The one table benchmark -> metrics -> references (documented in compare/README.md).
+
+A benchmark name is a scene-file stem (``benchmarks/<dir>/<stem>.json``). Lookup falls back
+to the folder name (``hydrostatic_2d`` -> ``hydrostatic``) and then to a generic entry that
+compares every common column against interFoam.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+RHO_F = 1000.0
+G = 9.81
+DAM_A = 0.146  # dam_break column width a (m)
+DAM_T_SCALE = math.sqrt(2.0 * G / DAM_A)  # T = t sqrt(2 g / a)
+
+
+@dataclass(frozen=True)
+class Normalisation:
+    """Maps (t, y) in SI to the reference's dimensionless space: T = t*t_scale, Y = y*y_scale."""
+
+    t_scale: float
+    y_scale: float
+    t_label: str
+    y_label: str
+
+
+@dataclass(frozen=True)
+class CsvReference:
+    """A series from a CSV in the data folder (its columns and row filter)."""
+
+    key: str
+    label: str
+    file: str
+    t_column: str
+    y_column: str
+    where: tuple[tuple[str, str], ...] = ()
+    subtract_first: bool = False  # digitisation offset (the file header says so)
+    max_y: float | None = None  # drop reference points beyond this (outside the set-up)
+    normalised: bool = False  # the CSV is in the metric's Normalisation space
+
+
+@dataclass(frozen=True)
+class ConstantReference:
+    """An analytic value that the whole series should equal."""
+
+    key: str
+    label: str
+    value: float
+
+
+Reference = CsvReference | ConstantReference
+
+
+@dataclass(frozen=True)
+class MetricSpec:
+    column: str
+    unit: str
+    description: str
+    references: tuple[Reference, ...] = ()
+    against_foam: bool = True
+    use_abs: bool = False  # compare |y| (sign convention of a wall force not fixed)
+    normalisation: Normalisation | None = None
+    # drop samples at t <= 0: forces and pressures exist only after the first pressure solve
+    skip_initial: bool = False
+
+
+@dataclass(frozen=True)
+class ScalarSpec:
+    """A scalar from summary.json (``summary_key``) or reduced from a metric series.
+
+    ``reducer``: "first" (first sample at t > 0), "last", "mean_tail" (mean over the last
+    ``tail`` fraction of the run), "period" (mean period between upward mean crossings over
+    the run after ``skip``), "frequency" (1/period).
+    """
+
+    name: str
+    unit: str
+    description: str
+    reference: float | None = None  # None: compare with interFoam's value, if any
+    reference_label: str = ""
+    summary_key: str | None = None
+    column: str | None = None
+    reducer: str = "last"
+    tail: float = 0.5
+    use_abs: bool = False
+
+
+@dataclass(frozen=True)
+class FieldSpec:
+    """A field comparison at chosen times.
+
+    kind "pressure_line": pressure along the vertical line x = ``x`` (particles vs cells,
+    and vs rho_f g (H - y) when ``hydrostatic_depth`` is set). kind "free_surface":
+    surface elevation against x.
+    """
+
+    kind: str
+    times: tuple[float, ...]
+    x: float | None = None
+    hydrostatic_depth: float | None = None
+
+
+@dataclass(frozen=True)
+class Benchmark:
+    name: str
+    title: str
+    dim: int
+    foam_case: str | None
+    metrics: tuple[MetricSpec, ...] = ()
+    scalars: tuple[ScalarSpec, ...] = ()
+    fields: tuple[FieldSpec, ...] = ()
+    # (metric column, reference key or "foam") measured in convergence and cost plots
+    primary: tuple[str, str] | None = None
+    generic: bool = False
+
+    def metric(self, column: str) -> MetricSpec | None:
+        for spec in self.metrics:
+            if spec.column == column:
+                return spec
+        return None
+
+
+FORCE_2D = "N/m"
+DAM_NORM = Normalisation(DAM_T_SCALE, 1.0 / DAM_A, "T = t sqrt(2g/a) (-)", "Z = front x / a (-)")
+
+_DAM_FRONT_REFS: tuple[Reference, ...] = (
+    CsvReference("ko1996", "Koshizuka & Oka (1996), exp.",
+                 "koshizuka_oka_1996_surge_front_pysph.csv",
+                 "T_t_sqrt_2g_over_L", "Z_x_over_L", max_y=4.0, normalised=True),
+    CsvReference("mm1952", "Martin & Moyce (1952), n^2=2 (Lethe)",
+                 "martin_moyce_1952_n2_2_front_lethe.csv",
+                 "tau_t_sqrt_2g_over_L", "x_front_over_L", max_y=4.0, normalised=True),
+    CsvReference("mm1952_a1125", "Martin & Moyce (1952), a=1.125 in",
+                 "martin_moyce_1952_surge_front_pysph.csv",
+                 "T_t_sqrt_2g_over_a", "Z_x_over_a", where=(("case_a_inch", "1.125"),),
+                 max_y=4.0, normalised=True),
+    CsvReference("mm1952_a225", "Martin & Moyce (1952), a=2.25 in",
+                 "martin_moyce_1952_surge_front_pysph.csv",
+                 "T_t_sqrt_2g_over_a", "Z_x_over_a", where=(("case_a_inch", "2.25"),),
+                 max_y=4.0, normalised=True),
+)
+
+_GATE_FILE = "antoci2007_elastic_gate_tip_displacement.csv"
+
+
+def _gate_refs(component: str) -> tuple[Reference, ...]:
+    names = (("experiment", "Antoci et al. (2007), exp."),
+             ("antoci_sph", "Antoci et al. (2007), SPH"),
+             ("yang2012_sph_fem", "Yang et al. (2012), SPH-FEM"))
+    return tuple(
+        CsvReference(f"{series}_{component}", label, _GATE_FILE, "t_s", "disp_m",
+                     where=(("series", series), ("component", component)), subtract_first=True)
+        for series, label in names
+    )
+
+
+HYDRO_H = 0.5
+HYDRO_FORCE = RHO_F * G * HYDRO_H**2 / 2.0  # 1226.25 N/m
+HYDRO_DEPTH_3D = 1.0  # wall width of the 3-D box (m); force = HYDRO_FORCE * width
+
+
+def _hydrostatic(name: str, dim: int) -> Benchmark:
+    width = 1.0 if dim == 2 else HYDRO_DEPTH_3D
+    force_unit = FORCE_2D if dim == 2 else "N"
+    return Benchmark(
+        name=name,
+        title=f"Water at rest ({dim}-D)",
+        dim=dim,
+        foam_case="hydrostatic" if dim == 2 else None,
+        metrics=(
+            MetricSpec("wall_force_x", force_unit, "force on a side wall",
+                       (ConstantReference("analytic", "rho g H^2/2", HYDRO_FORCE * width),),
+                       use_abs=True, skip_initial=True),
+            MetricSpec("max_speed", "m/s", "largest particle speed (spurious currents)"),
+            MetricSpec("volume", "m^2" if dim == 2 else "m^3", "fluid volume",
+                       against_foam=False),
+        ),
+        scalars=(
+            ScalarSpec("wall_force_final", force_unit, "wall force at the end",
+                       reference=HYDRO_FORCE * width, reference_label="rho g H^2/2",
+                       column="wall_force_x", reducer="last", use_abs=True),
+            ScalarSpec("max_speed_final", "m/s", "largest speed at the end", reference=0.0,
+                       reference_label="0", column="max_speed", reducer="last"),
+            ScalarSpec("pressure_l2_error", "-", "solver's relative L2 pressure error",
+                       reference=0.0, reference_label="0", summary_key="pressure_l2_error"),
+            ScalarSpec("volume_drift", "-", "relative volume drift", reference=0.0,
+                       reference_label="0", summary_key="volume_drift"),
+        ),
+        fields=(FieldSpec("pressure_line", (2.0,), x=0.5, hydrostatic_depth=HYDRO_H),),
+        primary=("wall_force_x", "analytic"),
+    )
+
+
+REGISTRY: dict[str, Benchmark] = {}
+
+
+def _register(b: Benchmark) -> None:
+    REGISTRY[b.name] = b
+
+
+_register(_hydrostatic("hydrostatic_2d", 2))
+_register(_hydrostatic("hydrostatic_3d", 3))
+
+_register(Benchmark(
+    name="dam_break",
+    title="Collapsing water column (Koshizuka & Oka set-up)",
+    dim=2,
+    foam_case="dam_break",
+    metrics=(
+        MetricSpec("front_x", "m", "surge front on the floor", _DAM_FRONT_REFS,
+                   normalisation=DAM_NORM),
+        MetricSpec("height_left", "m", "water height at the left wall"),
+        MetricSpec("pressure_right", "Pa", "pressure on the right wall 0.01 m above the floor",
+                   skip_initial=True),
+        MetricSpec("volume", "m^2", "fluid volume", against_foam=False),
+    ),
+    scalars=(
+        ScalarSpec("volume_drift", "-", "relative volume drift", reference=0.0,
+                   reference_label="0", summary_key="volume_drift"),
+    ),
+    fields=(
+        FieldSpec("free_surface", (0.1, 0.2, 0.3)),
+        FieldSpec("pressure_line", (0.3, 0.5), x=0.55),
+    ),
+    primary=("front_x", "ko1996"),
+))
+
+_register(Benchmark(
+    name="dam_break_obstacle",
+    title="Dam break on a stiff obstacle (interFoam damBreak tutorial)",
+    dim=2,
+    foam_case="dam_break_obstacle",
+    metrics=(
+        MetricSpec("obstacle_force_x", FORCE_2D, "horizontal force on the obstacle",
+                   skip_initial=True),
+        MetricSpec("front_x", "m", "surge front on the floor"),
+        MetricSpec("height_left", "m", "water height at the left wall"),
+    ),
+    fields=(FieldSpec("free_surface", (0.2, 0.4)),),
+    primary=("obstacle_force_x", "foam"),
+))
+
+_register(Benchmark(
+    name="elastic_gate",
+    title="Dam break through a rubber gate (Antoci et al. 2007)",
+    dim=2,
+    foam_case=None,
+    metrics=(
+        MetricSpec("gate_tip_dx", "m", "gate-tip horizontal displacement", _gate_refs("x")),
+        MetricSpec("gate_tip_dy", "m", "gate-tip vertical displacement", _gate_refs("y")),
+        MetricSpec("gate_force_x", FORCE_2D, "horizontal water force on the gate", skip_initial=True),
+    ),
+    scalars=(
+        ScalarSpec("gate_force_initial", FORCE_2D, "gate force at t = 0+", reference=77.9,
+                   reference_label="hydrostatic integral", column="gate_force_x",
+                   reducer="first"),
+    ),
+    primary=("gate_tip_dx", "experiment_x"),
+))
+
+_register(Benchmark(
+    name="submerged_block",
+    title="Interface force at rest on a clamped block",
+    dim=2,
+    foam_case=None,
+    metrics=(MetricSpec("block_force_y", FORCE_2D, "vertical interface force on the block",
+                        (ConstantReference("buoyancy", "rho g V", RHO_F * G * 0.02),),
+                        skip_initial=True),),
+    scalars=(
+        ScalarSpec("block_force_y_mean", FORCE_2D, "vertical force, mean over 2nd half",
+                   reference=RHO_F * G * 0.02, reference_label="rho g V",
+                   column="block_force_y", reducer="mean_tail", tail=0.5),
+    ),
+    primary=("block_force_y", "buoyancy"),
+))
+
+_register(Benchmark(
+    name="floating_block",
+    title="Floating block: buoyancy and heave decay",
+    dim=2,
+    foam_case="floating_block",
+    metrics=(
+        MetricSpec("com_y", "m", "block centre height"),
+        MetricSpec("com_x", "m", "block centre x"),
+        MetricSpec("angle", "rad", "block rotation"),
+        MetricSpec("volume", "m^2", "fluid volume", against_foam=False),
+    ),
+    scalars=(
+        ScalarSpec("equilibrium_com_y", "m", "centre height, mean over last 40 %",
+                   reference=0.504, reference_label="Archimedes", column="com_y",
+                   reducer="mean_tail", tail=0.4),
+        ScalarSpec("heave_period", "s", "heave period", column="com_y", reducer="period"),
+        ScalarSpec("volume_drift", "-", "relative volume drift", reference=0.0,
+                   reference_label="0", summary_key="volume_drift"),
+    ),
+    primary=("com_y", "foam"),
+))
+
+_CANT_E, _CANT_NU, _CANT_L, _CANT_T, _CANT_RHO = 1e8, 0.3, 0.5, 0.05, 1000.0
+_CANT_TIP = -3.386e-3  # m (downward), benchmarks.md
+_CANT_FREQ = 10.7  # Hz
+
+_register(Benchmark(
+    name="cantilever",
+    title="Cantilever under gravity (solid only)",
+    dim=2,
+    foam_case="cantilever",
+    metrics=(MetricSpec("tip_dy", "m", "tip vertical displacement"),
+             MetricSpec("tip_dx", "m", "tip horizontal displacement")),
+    scalars=(
+        ScalarSpec("static_tip_dy", "m", "tip deflection, mean over the run",
+                   reference=_CANT_TIP, reference_label="Euler-Bernoulli + shear",
+                   column="tip_dy", reducer="mean_tail", tail=1.0),
+        ScalarSpec("first_frequency", "Hz", "first bending frequency", reference=_CANT_FREQ,
+                   reference_label="beam theory", column="tip_dy", reducer="frequency"),
+    ),
+    primary=("tip_dy", "foam"),
+))
+
+
+UNITS: dict[str, str] = {
+    "front_x": "m", "height_left": "m", "pressure_right": "Pa", "wall_force_x": FORCE_2D,
+    "max_speed": "m/s", "volume": "m^2", "tip_dx": "m", "tip_dy": "m", "gate_tip_dx": "m",
+    "gate_tip_dy": "m", "gate_force_x": FORCE_2D, "com_x": "m", "com_y": "m", "angle": "rad",
+    "block_force_x": FORCE_2D, "block_force_y": FORCE_2D, "obstacle_force_x": FORCE_2D,
+}
+
+
+# other names of registry entries (a scene or folder called "hydrostatic" is the 2-D one)
+ALIASES: dict[str, str] = {"hydrostatic": "hydrostatic_2d"}
+
+
+def lookup(name: str, folder: str | None = None) -> Benchmark:
+    """Registry entry for a scene stem, else its folder, else a generic entry."""
+    for key in (name, folder):
+        key = ALIASES.get(key, key) if key else key
+        if key and key in REGISTRY:
+            return REGISTRY[key] if key == name else replace(REGISTRY[key], name=name)
+    return Benchmark(name=name, title=name, dim=2, foam_case=folder or name, generic=True)
+
+
+def generic_metrics(columns: list[str]) -> tuple[MetricSpec, ...]:
+    return tuple(MetricSpec(c, UNITS.get(c, "?"), c) for c in columns)
+
+
+def _ref_text(ref: Reference) -> str:
+    if isinstance(ref, ConstantReference):
+        return f"{ref.label} = {ref.value:g}"
+    extra = []
+    if ref.where:
+        extra.append(", ".join(f"{k}={v}" for k, v in ref.where))
+    if ref.subtract_first:
+        extra.append("first value subtracted")
+    if ref.max_y is not None:
+        extra.append(f"points with y <= {ref.max_y:g}")
+    tail = f" ({'; '.join(extra)})" if extra else ""
+    return f"{ref.label}: `{ref.file}`{tail}"
+
+
+def registry_markdown() -> str:
+    """The registry as a Markdown table (pasted into compare/README.md)."""
+    lines = ["| benchmark | OpenFOAM case | quantity | unit | references |",
+             "|---|---|---|---|---|"]
+    for b in REGISTRY.values():
+        for m in b.metrics:
+            refs = [_ref_text(r) for r in m.references]
+            if m.against_foam and b.foam_case:
+                refs.append("interFoam")
+            name = f"`{m.column}`" + (" (abs)" if m.use_abs else "")
+            if m.normalisation:
+                name += " in (T, Z)"
+            if m.skip_initial:
+                name += ", t > 0"
+            lines.append(f"| {b.name} | {b.foam_case or '-'} | {name} | {m.unit} | "
+                         f"{'; '.join(refs) or '-'} |")
+        for s in b.scalars:
+            src = f"summary `{s.summary_key}`" if s.summary_key else f"{s.reducer}(`{s.column}`)"
+            if s.reference is not None:
+                ref = (f"{s.reference:g}" if s.reference_label == f"{s.reference:g}"
+                       else f"{s.reference_label} = {s.reference:g}")
+            else:
+                ref = "interFoam" if b.foam_case else "-"
+            lines.append(f"| {b.name} | {b.foam_case or '-'} | {s.name}: {src} | {s.unit} | "
+                         f"{ref} |")
+        for f in b.fields:
+            where = f" at x = {f.x:g} m" if f.x is not None else ""
+            ref = "interFoam" if b.foam_case else "-"
+            if f.hydrostatic_depth is not None:
+                ref += f"; rho g (H - y), H = {f.hydrostatic_depth:g} m"
+            times = ", ".join(f"{t:g}" for t in f.times)
+            lines.append(f"| {b.name} | {b.foam_case or '-'} | field {f.kind}{where}, "
+                         f"t = {times} s | {'Pa' if f.kind == 'pressure_line' else 'm'} | "
+                         f"{ref} |")
+    return "\n".join(lines)

@@ -1,0 +1,145 @@
+// iqmpm: command-line front end of the IQ-MPM solver.
+//   iqmpm run SCENE [--out DIR] [--set key=value ...] [--threads N] [--quiet]
+//   iqmpm check SCENE [--set key=value ...]
+//   iqmpm keys            (reference of every scene key, default and accepted values)
+#include <omp.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <filesystem>
+#include <fmt/format.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+
+#include "core/config.h"
+#include "core/errors.h"
+#include "core/log.h"
+#include "scene/scene.h"
+#include "simulation/runner.h"
+
+namespace {
+
+using namespace iqmpm;
+
+std::string format_duration(double seconds) {
+  if (!std::isfinite(seconds) || seconds < 0) return "--";
+  const int s = int(seconds + 0.5);
+  return s >= 3600 ? fmt::format("{}h{:02d}m", s / 3600, (s / 60) % 60) : fmt::format("{}m{:02d}s", s / 60, s % 60);
+}
+
+// A one-line bar on a terminal; a plain log line every 10 % otherwise.
+class ProgressReporter {
+ public:
+  explicit ProgressReporter(bool quiet) : quiet_(quiet), terminal_(isatty(fileno(stderr))) {}
+
+  void operator()(const RunProgress& p) {
+    if (quiet_) return;
+    const double fraction = p.end_time > 0 ? p.time / p.end_time : 1;
+    const double eta = fraction > 0 ? p.elapsed_s * (1 - fraction) / fraction : -1;
+    if (terminal_) {
+      if (p.elapsed_s - last_draw_ < 0.1 && fraction < 1) return;
+      last_draw_ = p.elapsed_s;
+      const int width = 30, filled = int(fraction * width);
+      fmt::print(stderr, "\r[{}{}] {:5.1f}%  t = {:.4f}/{:.4g} s  dt = {:.2e} s  step {}  CG {}  ETA {}   ",
+                 std::string(filled, '#'), std::string(width - filled, '.'), 100 * fraction, p.time, p.end_time, p.dt,
+                 p.steps, p.linear_iterations, format_duration(eta));
+      if (fraction >= 1) fmt::print(stderr, "\n");
+    } else {
+      const int decile = int(fraction * 10 + 1e-9);
+      if (decile <= last_decile_) return;
+      last_decile_ = decile;
+      spdlog::info("t = {:.4f}/{:.4g} s ({:.0f} %), dt = {:.2e} s, step {}, elapsed {}, ETA {}", p.time, p.end_time,
+                   100 * fraction, p.dt, p.steps, format_duration(p.elapsed_s), format_duration(eta));
+    }
+  }
+
+ private:
+  bool quiet_, terminal_;
+  double last_draw_ = -1;
+  int last_decile_ = 0;
+};
+
+void print_stage_table(const Json& summary) {
+  const double wall = summary["wall_time_s"].get<double>();
+  fmt::print("\n{:<18} {:>10} {:>8}\n", "stage", "seconds", "share");
+  double staged = 0;
+  for (const auto& [stage, seconds] : summary["stage_seconds"].items()) {
+    fmt::print("{:<18} {:>10.3f} {:>7.1f}%\n", stage, seconds.get<double>(), 100 * seconds.get<double>() / wall);
+    staged += seconds.get<double>();
+  }
+  fmt::print("{:<18} {:>10.3f} {:>7.1f}%\n", "other (probes, IO)", wall - staged, 100 * (wall - staged) / wall);
+  fmt::print("{:<18} {:>10.3f}\n", "wall time", wall);
+  const auto& it = summary["linear_iterations"];
+  fmt::print("steps {}, particles {}, active cells {} (max {}), solver {}, CG iterations min/mean/max {}/{:.1f}/{}, volume drift {:.3e}\n",
+             summary["steps"].get<long>(), summary["particles"].get<long>(), summary["active_cells"].get<int>(),
+             summary["active_cells_max"].get<int>(), summary["linear_solver"].get<std::string>(), it["min"].get<int>(),
+             it["mean"].get<double>(), it["max"].get<int>(), summary["volume_drift"].get<double>());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"iqmpm: interface-quadrature MPM solver (incompressible fluid, free-slip walls)"};
+  app.set_version_flag("--version", std::string(IQMPM_VERSION));
+  app.require_subcommand(1);
+
+  std::string scene_path, out_dir = "out";
+  std::vector<std::string> overrides;
+  int threads = 0;
+  bool quiet = false;
+
+  auto* run = app.add_subcommand("run", "run a scene to its end time, writing frames, metrics.csv and summary.json");
+  run->add_option("scene", scene_path, "scene file (JSON); `iqmpm keys` lists every key")->required()->check(CLI::ExistingFile);
+  run->add_option("--out,-o", out_dir, "output folder (created; existing files are replaced)")->capture_default_str();
+  run->add_option("--set,-s", overrides, "override a scene key, e.g. --set dx=0.002 --set solver.method=pcg (repeatable)");
+  run->add_option("--threads,-j", threads, "OpenMP threads (0: all cores)")->check(CLI::NonNegativeNumber)->capture_default_str();
+  run->add_flag("--quiet,-q", quiet, "no progress output");
+
+  auto* check = app.add_subcommand("check", "validate a scene file (and --set overrides) without running it");
+  check->add_option("scene", scene_path, "scene file (JSON)")->required()->check(CLI::ExistingFile);
+  check->add_option("--set,-s", overrides, "override a scene key (repeatable)");
+
+  auto* keys = app.add_subcommand("keys", "print every scene key with its type, default, accepted values and meaning");
+
+  CLI11_PARSE(app, argc, argv);
+
+  auto console = spdlog::stderr_color_mt("console");
+  spdlog::set_default_logger(console);
+  spdlog::set_pattern("[%H:%M:%S] %^%l%$ %v");
+  logger()->set_level(spdlog::level::info);
+
+  try {
+    if (*keys) {
+      fmt::print("| key | type | default | accepted | meaning |\n|---|---|---|---|---|\n");
+      for (const auto& k : document_scene_keys())
+        fmt::print("| `{}` | {} | {} | {} | {} |\n", k.path, k.type, k.default_value, k.accepted, k.meaning);
+      return 0;
+    }
+    const SceneSpec scene = load_scene(scene_path, overrides);
+    if (*check) {
+      fmt::print("{}: valid ({}-D, dx = {:g} m, end_time = {:g} s, {} probes)\n", scene_path, scene.dim, scene.dx,
+                 scene.end_time, scene.probes.size());
+      return 0;
+    }
+    if (threads > 0) omp_set_num_threads(threads);
+    spdlog::info("iqmpm {}: scene '{}' ({}-D, dx = {:g} m, end_time = {:g} s), {} threads, output in {}", IQMPM_VERSION,
+                 scene.name.empty() ? scene_path : scene.name, scene.dim, scene.dx, scene.end_time, omp_get_max_threads(),
+                 out_dir);
+    ProgressReporter progress(quiet);
+    RunOptions options;
+    options.out_dir = out_dir;
+    options.on_progress = [&](const RunProgress& p) { progress(p); };
+    const RunResult result = run_scene(scene, options);
+    if (!quiet) print_stage_table(result.summary);
+    if (!result.ok) {
+      spdlog::error("run failed: {}", result.summary["status"].get<std::string>());
+      spdlog::error("partial metrics and the diagnosis are in {}/summary.json", out_dir);
+      return 3;
+    }
+    spdlog::info("done: {}/summary.json, {}/metrics.csv, {}/particles.xdmf", out_dir, out_dir, out_dir);
+    return 0;
+  } catch (const InputError& error) {
+    spdlog::error("{}", error.what());
+    return 2;
+  }
+}

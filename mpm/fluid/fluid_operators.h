@@ -1,0 +1,177 @@
+// Fluid operators of the pressure-only system (method.md §4): the lumped mass M^f on the
+// active cell corners, the gradient G^f (Q1-P0) on the dual cells that hold fluid, and the
+// free-slip wall operator B. Empty dual cells get no unknown, which is the free surface
+// (p = 0 holds weakly).
+#pragma once
+
+#include <Eigen/SparseCore>
+#include <array>
+#include <vector>
+
+#include "core/types.h"
+#include "grid/grid.h"
+#include "grid/kernels.h"
+#include "particles/particles.h"
+#include "transfer/apic.h"
+
+namespace iqmpm {
+
+using Triplet = Eigen::Triplet<Real>;
+
+// One domain side: axis and side (0 = lower, 1 = upper).
+struct DomainSide {
+  int axis;
+  int side;
+};
+
+template <int dim>
+struct WallFace {
+  int dual_cell;  // fluid dual cell (layout index) next to the wall
+  DomainSide wall;
+};
+
+template <int dim>
+struct FluidOperators {
+  // Velocity unknowns: active corners (mass > 0), dim components each, dof-major.
+  std::vector<int> dof_of_corner;  // -1 where inactive
+  std::vector<int> corner_of_dof;
+  Eigen::VectorXd mass;            // M^f per dof (not per component), from the fluid quadrature
+  // Pressure unknowns: dual cells holding fluid particles.
+  std::vector<int> pressure_of_cell;  // -1 where no fluid
+  std::vector<int> cell_of_pressure;
+  std::vector<char> interior;         // per pressure unknown: exact one-point quadrature used
+  std::vector<WallFace<dim>> wall_faces;
+  std::vector<Triplet> gradient_transpose;  // rows: pressure unknowns; columns: velocity components
+  std::vector<Triplet> wall_rows;           // rows: wall faces; columns: velocity components
+
+  int velocity_dofs() const { return int(corner_of_dof.size()); }
+  int pressure_unknowns() const { return int(cell_of_pressure.size()); }
+};
+
+// slip[axis][side] says whether that domain side is a free-slip wall.
+template <int dim>
+FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles<dim>& particles,
+                                          const ParticleBins<dim>& bins,
+                                          const GridMomentum<dim>& corner_momentum, Real density,
+                                          const std::array<std::array<bool, 2>, dim>& slip,
+                                          bool surface_cells_at_centre = false) {
+  FluidOperators<dim> ops;
+  const GridLayout<dim> corners = grid.corners();
+  const GridLayout<dim> cells = grid.dual_cells();
+
+  // Pressure unknowns: dual cells with at least one fluid particle.
+  ops.pressure_of_cell.assign(cells.size(), -1);
+  for (int k = 0; k < cells.size(); ++k)
+    if (bins.count(k) > 0) {
+      ops.pressure_of_cell[k] = int(ops.cell_of_pressure.size());
+      ops.cell_of_pressure.push_back(k);
+    }
+
+  // A cell is interior when no neighbour (3^dim block) is an empty cell inside the
+  // domain: it is then full of fluid and the exact one-point rule applies (method.md §4).
+  const int np = ops.pressure_unknowns();
+  ops.interior.assign(np, 0);
+  for (int row = 0; row < np; ++row) {
+    const IVec<dim> cell = cells.multi_index(ops.cell_of_pressure[row]);
+    bool interior = true;
+    for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
+      const IVec<dim> neighbour = cell + offset - IVec<dim>::Ones();
+      if (cells.contains(neighbour) && bins.count(cells.index(neighbour)) == 0) interior = false;
+    });
+    ops.interior[row] = interior;
+  }
+
+  // M^f from the same quadrature as G^f (method.md §4): exact in interior cells, the
+  // particles elsewhere. Using one quadrature for both keeps fluid at rest in hydrostatic
+  // balance even when particles are unevenly spread. Corners with mass are the unknowns.
+  std::vector<Real> corner_mass(corners.size(), 0);
+  const Real cell_volume = grid.cell_volume();
+  // Fluid volume held by a cell's particles, capped at the cell volume (surface cells
+  // with the one-point rule at the centre, option fluid.surface_quadrature = "centre").
+  auto cell_fluid_volume = [&](int row) {
+    Real volume = 0;
+    const int cell_index = ops.cell_of_pressure[row];
+    for (int p = bins.begin(cell_index); p < bins.end(cell_index); ++p) volume += particles.initial_volume[p];
+    return std::min(volume, cell_volume);
+  };
+  const Real corner_share = density * cell_volume / Real(1 << dim);
+  for (int row = 0; row < np; ++row) {
+    const int cell_index = ops.cell_of_pressure[row];
+    const IVec<dim> cell = cells.multi_index(cell_index);
+    if (ops.interior[row] || surface_cells_at_centre) {
+      const Real share = ops.interior[row] ? corner_share : density * cell_fluid_volume(row) / Real(1 << dim);
+      for_each_offset<dim, 2>([&](const IVec<dim>& offset) { corner_mass[corners.index(cell + offset)] += share; });
+      continue;
+    }
+    for (int p = bins.begin(cell_index); p < bins.end(cell_index); ++p) {
+      const auto stencil = linear_stencil<dim>(grid.to_cells(particles.position[p]), grid.dx);
+      const Real quadrature_mass = density * particles.initial_volume[p];
+      for_each_offset<dim, 2>([&](const IVec<dim>& offset) {
+        corner_mass[corners.index(stencil.base + offset)] += quadrature_mass * stencil.weight(offset);
+      });
+    }
+  }
+  Real largest_mass = 0;
+  for (Real m : corner_mass) largest_mass = std::max(largest_mass, m);
+  ops.dof_of_corner.assign(corners.size(), -1);
+  for (int k = 0; k < corners.size(); ++k)
+    if (corner_mass[k] > 1e-12 * largest_mass && corner_momentum.mass[k] > 0) {
+      ops.dof_of_corner[k] = int(ops.corner_of_dof.size());
+      ops.corner_of_dof.push_back(k);
+    }
+  ops.mass.resize(ops.velocity_dofs());
+  for (int d = 0; d < ops.velocity_dofs(); ++d) ops.mass[d] = corner_mass[ops.corner_of_dof[d]];
+
+  // G^fT rows: -(sum over quadrature of V grad N1_c) for the corners c of the cell.
+  ops.gradient_transpose.reserve(std::size_t(np) * (1 << dim) * dim);
+  for (int row = 0; row < np; ++row) {
+    const int cell_index = ops.cell_of_pressure[row];
+    const IVec<dim> cell = cells.multi_index(cell_index);
+    Eigen::Matrix<Real, dim, (1 << dim)> integral = Eigen::Matrix<Real, dim, (1 << dim)>::Zero();
+    auto accumulate = [&](const Vec<dim>& x, Real volume) {
+      const auto stencil = linear_stencil<dim>(grid.to_cells(x), grid.dx);
+      int corner = 0;
+      for_each_offset<dim, 2>([&](const IVec<dim>& offset) { integral.col(corner++) += volume * stencil.gradient(offset); });
+    };
+    if (ops.interior[row]) {
+      accumulate(grid.dual_cell_centre(cell), cell_volume);
+    } else if (surface_cells_at_centre) {
+      accumulate(grid.dual_cell_centre(cell), cell_fluid_volume(row));
+    } else {
+      for (int p = bins.begin(cell_index); p < bins.end(cell_index); ++p)
+        accumulate(particles.position[p], particles.initial_volume[p]);
+    }
+    int corner = 0;
+    for_each_offset<dim, 2>([&](const IVec<dim>& offset) {
+      const int dof = ops.dof_of_corner[corners.index(cell + offset)];
+      if (dof >= 0)
+        for (int a = 0; a < dim; ++a)
+          ops.gradient_transpose.emplace_back(row, dof * dim + a, -integral(a, corner));
+      ++corner;
+    });
+  }
+
+  // B rows: one face quadrature point per face between a fluid cell and a slip wall,
+  // weight dx^(dim-1), outward normal of the fluid; N1 at the face centre is 2^(1-dim)
+  // for each of the face's corners.
+  const Real face_weight = cell_volume / grid.dx / Real(1 << (dim - 1));
+  for (int row = 0; row < np; ++row) {
+    const IVec<dim> cell = cells.multi_index(ops.cell_of_pressure[row]);
+    for (int axis = 0; axis < dim; ++axis)
+      for (int side = 0; side < 2; ++side) {
+        const bool at_wall = side == 0 ? cell[axis] == 0 : cell[axis] == grid.cells[axis] - 1;
+        if (!at_wall || !slip[axis][side]) continue;
+        const int face_row = int(ops.wall_faces.size());
+        ops.wall_faces.push_back({ops.cell_of_pressure[row], {axis, side}});
+        const Real normal = side == 0 ? -1 : 1;
+        for_each_offset<dim, 2>([&](const IVec<dim>& offset) {
+          if (offset[axis] != side) return;
+          const int dof = ops.dof_of_corner[corners.index(cell + offset)];
+          if (dof >= 0) ops.wall_rows.emplace_back(face_row, dof * dim + axis, face_weight * normal);
+        });
+      }
+  }
+  return ops;
+}
+
+}  // namespace iqmpm

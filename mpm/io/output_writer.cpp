@@ -1,0 +1,121 @@
+#include "io/output_writer.h"
+
+#include <hdf5.h>
+
+#include <filesystem>
+#include <fmt/format.h>
+#include <fstream>
+
+#include "core/errors.h"
+
+namespace iqmpm {
+namespace fs = std::filesystem;
+
+void write_file_atomically(const std::string& path, const std::string& text) {
+  const std::string temporary = path + ".tmp";
+  {
+    std::ofstream out(temporary, std::ios::binary);
+    if (!out) throw InputError(fmt::format("cannot write '{}'", path));
+    out << text;
+    if (!out) throw InputError(fmt::format("cannot write '{}' (disk full?)", path));
+  }
+  fs::rename(temporary, path);
+}
+
+OutputWriter::OutputWriter(std::string directory) : directory_(std::move(directory)) {
+  std::error_code ec;
+  fs::create_directories(fs::path(directory_) / "frames", ec);
+  if (ec) throw InputError(fmt::format("--out '{}': cannot create the output folder: {}", directory_, ec.message()));
+}
+
+namespace {
+
+void write_dataset(hid_t file, const char* name, hid_t type, int rows, int cols, const void* data) {
+  hsize_t dims[2] = {hsize_t(rows), hsize_t(cols)};
+  hid_t space = H5Screate_simple(cols > 1 ? 2 : 1, dims, nullptr);
+  hid_t set = H5Dcreate2(file, name, type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (rows > 0) H5Dwrite(set, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data);
+  H5Dclose(set);
+  H5Sclose(space);
+}
+
+std::string grid_xml(const std::string& h5, int count, double time, bool with_time) {
+  std::string xml = fmt::format("<Grid Name=\"particles\" GridType=\"Uniform\">\n");
+  if (with_time) xml += fmt::format("<Time Value=\"{:.10g}\"/>\n", time);
+  xml += fmt::format(
+      "<Topology TopologyType=\"Polyvertex\" NumberOfElements=\"{0}\" NodesPerElement=\"1\">\n"
+      "<DataItem Dimensions=\"{0} 1\" NumberType=\"Int\" Precision=\"4\" Format=\"HDF\">{1}:/connectivity</DataItem>\n"
+      "</Topology>\n"
+      "<Geometry GeometryType=\"XYZ\">\n"
+      "<DataItem Dimensions=\"{0} 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">{1}:/position</DataItem>\n"
+      "</Geometry>\n"
+      "<Attribute Name=\"velocity\" AttributeType=\"Vector\" Center=\"Node\">\n"
+      "<DataItem Dimensions=\"{0} 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">{1}:/velocity</DataItem>\n"
+      "</Attribute>\n"
+      "<Attribute Name=\"pressure\" AttributeType=\"Scalar\" Center=\"Node\">\n"
+      "<DataItem Dimensions=\"{0}\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">{1}:/pressure</DataItem>\n"
+      "</Attribute>\n"
+      "<Attribute Name=\"material\" AttributeType=\"Scalar\" Center=\"Node\">\n"
+      "<DataItem Dimensions=\"{0}\" NumberType=\"Int\" Precision=\"4\" Format=\"HDF\">{1}:/material</DataItem>\n"
+      "</Attribute>\n</Grid>\n",
+      count, h5);
+  return xml;
+}
+
+}  // namespace
+
+void OutputWriter::write_frame(const ParticleFrame& frame) {
+  const int index = int(frames_.size());
+  const std::string stem = fmt::format("frame_{:05d}", index);
+  const fs::path frames_dir = fs::path(directory_) / "frames";
+  const std::string h5_path = (frames_dir / (stem + ".h5")).string();
+  const std::string temporary = h5_path + ".tmp";
+  hid_t file = H5Fcreate(temporary.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  if (file < 0) throw InputError(fmt::format("cannot write '{}'", h5_path));
+  std::vector<int> connectivity(frame.count);
+  for (int i = 0; i < frame.count; ++i) connectivity[i] = i;
+  write_dataset(file, "/connectivity", H5T_NATIVE_INT, frame.count, 1, connectivity.data());
+  write_dataset(file, "/position", H5T_NATIVE_DOUBLE, frame.count, 3, frame.position.data());
+  write_dataset(file, "/velocity", H5T_NATIVE_DOUBLE, frame.count, 3, frame.velocity.data());
+  write_dataset(file, "/pressure", H5T_NATIVE_DOUBLE, frame.count, 1, frame.pressure.data());
+  write_dataset(file, "/material", H5T_NATIVE_INT, frame.count, 1, frame.material.data());
+  H5Fclose(file);
+  fs::rename(temporary, h5_path);
+  write_file_atomically((frames_dir / (stem + ".xdmf")).string(),
+                        "<?xml version=\"1.0\"?>\n<Xdmf Version=\"3.0\">\n<Domain>\n" +
+                            grid_xml(stem + ".h5", frame.count, frame.time, false) + "</Domain>\n</Xdmf>\n");
+  frames_.emplace_back(index, frame.time);
+  counts_.push_back(frame.count);
+  write_collection();
+}
+
+void OutputWriter::write_collection() const {
+  std::string xml = "<?xml version=\"1.0\"?>\n<Xdmf Version=\"3.0\">\n<Domain>\n"
+                    "<Grid Name=\"particles\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  std::string times = "frame,t\n";
+  for (std::size_t i = 0; i < frames_.size(); ++i) {
+    const std::string h5 = fmt::format("frames/frame_{:05d}.h5", frames_[i].first);
+    xml += grid_xml(h5, counts_[i], frames_[i].second, true);
+    times += fmt::format("{},{:.10g}\n", frames_[i].first, frames_[i].second);
+  }
+  xml += "</Grid>\n</Domain>\n</Xdmf>\n";
+  write_file_atomically((fs::path(directory_) / "particles.xdmf").string(), xml);
+  write_file_atomically((fs::path(directory_) / "frames" / "times.csv").string(), times);
+}
+
+void OutputWriter::write_metrics(const std::vector<std::string>& columns, const std::vector<std::vector<double>>& rows) const {
+  std::string text;
+  for (std::size_t c = 0; c < columns.size(); ++c) text += (c ? "," : "") + columns[c];
+  text += "\n";
+  for (const auto& row : rows) {
+    for (std::size_t c = 0; c < row.size(); ++c) text += fmt::format("{}{:.10g}", c ? "," : "", row[c]);
+    text += "\n";
+  }
+  write_file_atomically((fs::path(directory_) / "metrics.csv").string(), text);
+}
+
+void OutputWriter::write_summary(const Json& summary) const {
+  write_file_atomically((fs::path(directory_) / "summary.json").string(), summary.dump(2) + "\n");
+}
+
+}  // namespace iqmpm

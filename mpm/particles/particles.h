@@ -1,0 +1,94 @@
+// Material points stored as one array per attribute (structure of arrays).
+#pragma once
+
+#include <numeric>
+#include <vector>
+
+#include "core/types.h"
+#include "grid/grid.h"
+#include "grid/kernels.h"
+
+namespace iqmpm {
+
+template <int dim>
+struct Particles {
+  std::vector<Vec<dim>> position;
+  std::vector<Vec<dim>> velocity;
+  std::vector<Mat<dim>> affine;  // APIC C_p (method.md §6)
+  std::vector<Real> mass;
+  std::vector<Real> initial_volume;
+  // Solid-only attributes (empty for fluid particles).
+  std::vector<Mat<dim>> deformation_gradient;
+  std::vector<Real> ghost_J;  // ghost-matrix J_g (method.md §1)
+  std::vector<int> body;      // which solid
+
+  std::size_t size() const { return position.size(); }
+  bool empty() const { return position.empty(); }
+
+  void add(const Vec<dim>& x, const Vec<dim>& v, Real m, Real volume) {
+    position.push_back(x);
+    velocity.push_back(v);
+    affine.push_back(Mat<dim>::Zero());
+    mass.push_back(m);
+    initial_volume.push_back(volume);
+  }
+
+  // Reorders every attribute by `order` (new[i] = old[order[i]]).
+  void permute(const std::vector<int>& order) {
+    apply(position, order);
+    apply(velocity, order);
+    apply(affine, order);
+    apply(mass, order);
+    apply(initial_volume, order);
+    apply(deformation_gradient, order);
+    apply(ghost_J, order);
+    apply(body, order);
+  }
+
+ private:
+  template <class T>
+  static void apply(std::vector<T>& values, const std::vector<int>& order) {
+    if (values.empty()) return;
+    std::vector<T> sorted(values.size());
+    for (std::size_t i = 0; i < order.size(); ++i) sorted[i] = values[order[i]];
+    values.swap(sorted);
+  }
+};
+
+// Particles sorted by dual cell (first axis outermost), with the range of particles of
+// every cell. Sorting gives cache locality and the slabs of the coloured parallel P2G.
+template <int dim>
+struct ParticleBins {
+  std::vector<int> cell_start;  // size cells+1: particles of cell k are [cell_start[k], cell_start[k+1])
+  GridLayout<dim> layout;
+
+  int begin(int cell) const { return cell_start[cell]; }
+  int end(int cell) const { return cell_start[cell + 1]; }
+  int count(int cell) const { return cell_start[cell + 1] - cell_start[cell]; }
+  // Particle range of the slab of first-axis cells [first, last).
+  int slab_begin(int first) const { return cell_start[first * layout.slab_size()]; }
+  int slab_end(int last) const { return cell_start[last * layout.slab_size()]; }
+};
+
+// Counting sort of the particles by dual cell; particles must lie inside the domain.
+template <int dim>
+ParticleBins<dim> sort_particles_by_cell(const Grid<dim>& grid, Particles<dim>& particles) {
+  ParticleBins<dim> bins;
+  bins.layout = grid.dual_cells();
+  const int cells = bins.layout.size();
+  const int n = int(particles.size());
+  std::vector<int> cell_of(n);
+  bins.cell_start.assign(cells + 1, 0);
+  for (int p = 0; p < n; ++p) {
+    cell_of[p] = bins.layout.index(dual_cell_of<dim>(grid.to_cells(particles.position[p])));
+    ++bins.cell_start[cell_of[p] + 1];
+  }
+  std::partial_sum(bins.cell_start.begin(), bins.cell_start.end(), bins.cell_start.begin());
+  std::vector<int> next(bins.cell_start.begin(), bins.cell_start.end() - 1);
+  std::vector<int> order(n);
+  for (int p = 0; p < n; ++p) order[next[cell_of[p]]++] = p;
+  particles.permute(order);
+  return bins;
+}
+
+}  // namespace iqmpm

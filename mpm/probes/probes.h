@@ -1,0 +1,67 @@
+// Probes: the metrics of benchmarks.md, evaluated on the current state, one metrics.csv
+// column each (names from the output contract).
+#pragma once
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "simulation/simulation.h"
+
+namespace iqmpm {
+
+template <int dim>
+Real evaluate_probe(const Simulation<dim>& sim, const ProbeSpec& probe) {
+  const auto& fluid = sim.fluid();
+  const auto& grid = sim.grid();
+  const int up = sim.up_axis();
+  // Particles mark the centres of their share of volume: the fluid reaches half a spacing
+  // beyond the outermost ones.
+  const Real half_spacing = 0.5 * grid.dx / sim.scene().particles_per_axis;
+  if (probe.type == "front") {
+    const Real below = probe.band < 0 ? grid.origin[up] + grid.dx : probe.band;
+    Real front = -std::numeric_limits<Real>::infinity();
+    for (const auto& x : fluid.position)
+      if (x[up] < below) front = std::max(front, x[probe.axis]);
+    return std::isfinite(front) ? front + half_spacing : std::nan("");
+  }
+  if (probe.type == "water_height") {
+    const Real half_width = probe.band < 0 ? grid.dx : probe.band;
+    Real top = -std::numeric_limits<Real>::infinity();
+    for (const auto& x : fluid.position)
+      if (std::abs(x[0] - probe.position) <= half_width) top = std::max(top, x[up]);
+    return std::isfinite(top) ? top + half_spacing - grid.origin[up] : 0;
+  }
+  if (probe.type == "pressure") {
+    Vec<dim> x;
+    for (int a = 0; a < dim; ++a) x[a] = probe.point[a];
+    const auto cells = grid.dual_cells();
+    IVec<dim> c = dual_cell_of<dim>(grid.to_cells(x));
+    for (int a = 0; a < dim; ++a) c[a] = std::min(std::max(c[a], 0), grid.cells[a] - 1);
+    return sim.fluid_pressure(cells.index(c));
+  }
+  if (probe.type == "wall_force") return sim.wall_force(probe.wall_axis, probe.wall_side);
+  if (probe.type == "max_speed") {
+    Real speed = 0;
+    for (const auto& v : fluid.velocity) speed = std::max(speed, v.norm());
+    return speed;
+  }
+  if (probe.type == "volume") return sim.fluid_volume();
+  if (probe.type == "hydrostatic_pressure_error") {
+    // Relative L2 over the fluid cells of p against rho g (H - y) at the cell centre.
+    const auto cells = grid.dual_cells();
+    const Real rho_g = sim.scene().fluid.density * std::abs(sim.scene().gravity[up]);
+    Real error2 = 0, norm2 = 0;
+    for (int k : sim.fluid_cells()) {
+      const Real y = grid.dual_cell_centre(cells.multi_index(k))[up];
+      const Real exact = rho_g * std::max(Real(0), probe.surface - y);
+      const Real diff = sim.fluid_pressure(k) - exact;
+      error2 += diff * diff;
+      norm2 += exact * exact;
+    }
+    return norm2 > 0 ? std::sqrt(error2 / norm2) : 0;
+  }
+  return std::nan("");
+}
+
+}  // namespace iqmpm

@@ -1,0 +1,229 @@
+#include "scene/scene.h"
+
+#include <cmath>
+#include <fmt/format.h>
+#include <fstream>
+#include <limits>
+#include <sstream>
+
+#include "core/errors.h"
+
+namespace iqmpm {
+namespace {
+
+constexpr Real kInf = std::numeric_limits<Real>::infinity();
+const char* kSideNames[3][2] = {{"x-", "x+"}, {"y-", "y+"}, {"z-", "z+"}};
+
+ShapeSpec read_shape(JsonReader& r, int dim) {
+  ShapeSpec s;
+  s.type = r.choice("type", std::nullopt, {"box", "sphere", "polygon"}, "shape kind");
+  const bool doc = r.documenting();
+  if (s.type == "box" || doc) {
+    s.min = r.vector("min", std::nullopt, dim, "box: lower corner (m)");
+    s.max = r.vector("max", std::nullopt, dim, "box: upper corner (m)");
+    for (int a = 0; a < dim && !doc; ++a)
+      if (s.max[a] <= s.min[a])
+        throw InputError(fmt::format("scene key '{}.max': must exceed min on every axis (axis {}: {} <= {})",
+                                     r.path(), a, s.max[a], s.min[a]));
+  }
+  if (s.type == "sphere" || doc) {
+    s.centre = r.vector("centre", std::nullopt, dim, "sphere (disk in 2-D): centre (m)");
+    s.radius = r.number("radius", std::nullopt, 0, kInf, "sphere: radius (m)", true);
+  }
+  if (s.type == "polygon" || doc) {
+    if (dim != 2 && !doc) throw InputError(fmt::format("scene key '{}.type' = \"polygon\": polygons are 2-D only", r.path()));
+    s.vertices = r.numbers("vertices", std::nullopt, 6, "polygon (2-D): flat list x0, y0, x1, y1, ... (m), at least 3 vertices");
+    if (!doc && s.vertices.size() % 2 != 0)
+      throw InputError(fmt::format("scene key '{}.vertices': expected an even count (x, y pairs), got {}", r.path(), s.vertices.size()));
+  }
+  r.finish();
+  return s;
+}
+
+ProbeSpec read_probe(JsonReader& r, int dim, const std::vector<Real>& domain_min, const std::vector<Real>& domain_max) {
+  ProbeSpec p;
+  const bool doc = r.documenting();
+  p.type = r.choice("type", std::nullopt,
+                    {"front", "water_height", "pressure", "wall_force", "max_speed", "volume", "hydrostatic_pressure_error"},
+                    "what the probe measures (a metrics.csv column per probe)");
+  const std::string default_name = p.type == "front" ? "front_x"
+                                   : p.type == "water_height" ? "height_left"
+                                   : p.type == "pressure" ? "pressure_right"
+                                   : p.type == "wall_force" ? "wall_force_x"
+                                   : p.type == "hydrostatic_pressure_error" ? "pressure_l2_error"
+                                   : p.type;
+  p.name = r.text("name", default_name, "column name in metrics.csv (benchmarks.md names)");
+  if (p.name.empty() || p.name == "t") throw InputError(fmt::format("scene key '{}.name': must be non-empty and not 't'", r.path()));
+  if (p.type == "front" || doc) {
+    p.axis = r.integer("axis", 0, 0, dim - 1, "front: axis along which the front travels (largest coordinate reported)");
+    p.band = r.number("below", -1, -1, kInf, "front: only fluid particles lower than this height (m) count; -1 = one cell above the floor");
+  }
+  if (p.type == "water_height" || doc) {
+    p.position = r.number("position", std::nullopt, -kInf, kInf, "water_height: first-axis coordinate of the gauge (m)");
+    p.band = r.number("half_width", -1, -1, kInf, "water_height: particles within this distance of the gauge count (m); -1 = one cell");
+  }
+  if (p.type == "pressure" || doc) p.point = r.vector("point", std::nullopt, dim, "pressure: sample point (m); the pressure of its dual cell");
+  if (p.type == "wall_force" || doc) {
+    std::vector<std::string> sides;
+    for (int a = 0; a < dim; ++a) sides.insert(sides.end(), {kSideNames[a][0], kSideNames[a][1]});
+    const std::string wall = r.choice("wall", std::nullopt, sides, "wall_force: which domain wall; the force of the fluid on it along its axis (N/m in 2-D, N in 3-D)");
+    for (int a = 0; a < dim; ++a)
+      for (int s = 0; s < 2; ++s)
+        if (wall == kSideNames[a][s]) p.wall_axis = a, p.wall_side = s;
+  }
+  if (p.type == "hydrostatic_pressure_error" || doc)
+    p.surface = r.number("surface", std::nullopt, -kInf, kInf, "hydrostatic_pressure_error: still-water level H (m); relative L2 error of p vs rho g (H - y) over the fluid cells");
+  if (!doc && p.type == "pressure")
+    for (int a = 0; a < dim; ++a)
+      if (p.point[a] < domain_min[a] || p.point[a] > domain_max[a])
+        throw InputError(fmt::format("scene key '{}.point': outside the domain on axis {}", r.path(), a));
+  r.finish();
+  return p;
+}
+
+SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
+  SceneSpec scene;
+  scene.document = document;
+  JsonReader root(document, "", docs);
+  scene.name = root.text("name", "", "scene name, shown in logs and summary.json");
+  scene.description = root.text("description", "", "free text");
+  scene.dim = root.integer("dim", std::nullopt, 2, 3, "spatial dimension");
+  const int dim = scene.dim;
+  {
+    JsonReader domain = root.object("domain", "the simulation box; its sides are the walls");
+    scene.domain_min = domain.vector("min", std::nullopt, dim, "lower corner (m)");
+    scene.domain_max = domain.vector("max", std::nullopt, dim, "upper corner (m)");
+    domain.finish();
+  }
+  scene.dx = root.number("dx", std::nullopt, 0, kInf, "grid spacing (m); the domain extent must be a whole number of cells", true);
+  if (!docs)
+    for (int a = 0; a < dim; ++a) {
+      const Real extent = scene.domain_max[a] - scene.domain_min[a];
+      if (extent <= 0) throw InputError(fmt::format("scene key 'domain.max': must exceed domain.min on axis {}", a));
+      const Real cells = extent / scene.dx;
+      if (std::abs(cells - std::round(cells)) > 1e-6 * cells || std::round(cells) < 4)
+        throw InputError(fmt::format("scene key 'dx' = {:g}: the domain extent {:g} m on axis {} is {:.4f} cells; "
+                                     "accepted: dx that divides every extent into a whole number (>= 4) of cells",
+                                     scene.dx, extent, a, cells));
+    }
+  scene.particles_per_axis = root.integer("particles_per_axis", 2, 1, 8, "particles per cell along each axis (2 gives 4 per cell in 2-D, 8 in 3-D)");
+  scene.jitter = root.number("jitter", 0, 0, 1, "random displacement of seeded particles, as a fraction of their spacing");
+  scene.seed = unsigned(root.integer("seed", 1, 0, std::numeric_limits<int>::max(), "random seed of the jitter"));
+  std::vector<Real> default_gravity(dim, 0);
+  default_gravity[1] = -9.81;
+  scene.gravity = root.vector("gravity", default_gravity, dim, "gravitational acceleration (m/s^2); 'up' is opposite to its largest component");
+  scene.end_time = root.number("end_time", std::nullopt, 0, kInf, "simulated time to run (s)", true);
+  scene.frame_rate = root.number("frame_rate", 0, 0, kInf, "particle frames written per simulated second; 0 = only the first and the last");
+  scene.write_frames = root.boolean("write_frames", true, "write particle frames (HDF5 + XDMF) at all");
+  scene.cfl = root.number("cfl", 0.5, 0, 1, "CFL number: dt = cfl dx / max(particle speed, sqrt(|g| dx))", true);
+  scene.dt_min = root.number("dt_min", 1e-7, 0, kInf, "smallest time step (s); a smaller one needed stops the run", true);
+  scene.dt_max = root.number("dt_max", 1e-2, 0, kInf, "largest time step (s)", true);
+  if (!docs && scene.dt_min > scene.dt_max) throw InputError("scene key 'dt_min': must not exceed dt_max");
+  {
+    JsonReader walls = root.object("walls", "boundary condition on each domain side (x-, x+, y-, y+, z-, z+)");
+    for (int a = 0; a < 3; ++a)
+      for (int s = 0; s < 2; ++s) {
+        if (a >= dim) {
+          scene.walls[a][s] = "none";
+          continue;
+        }
+        scene.walls[a][s] = walls.choice(kSideNames[a][s], "slip", {"slip", "none"},
+                                         "slip: free-slip wall (multipliers y, method.md §4); none: no wall, a particle crossing it stops the run");
+      }
+    walls.finish();
+  }
+  {
+    JsonReader fluid = root.object("fluid", "the incompressible fluid (absent: no fluid)");
+    scene.fluid.density = fluid.number("density", 1000, 0, kInf, "fluid density rho_f (kg/m^3)", true);
+    scene.fluid.surface_quadrature = fluid.choice(
+        "surface_quadrature", "particles", {"particles", "centre"},
+        "quadrature of G^f and M^f in fluid cells next to empty ones: particles (method.md §4) or one point at the "
+        "cell centre weighted by the particles' volume");
+    scene.fluid.initial_velocity = fluid.vector("initial_velocity", std::vector<Real>(dim, 0), dim, "initial velocity of the fluid (m/s)");
+    for (auto& shape : fluid.objects("shapes", "regions filled with fluid; a particle is seeded where any shape contains it"))
+      scene.fluid.shapes.push_back(read_shape(shape, dim));
+    if (docs) {
+      Json example = {{"type", "box"}};
+      JsonReader shape(example, "fluid.shapes[]", docs);
+      read_shape(shape, dim);
+    }
+    fluid.finish();
+  }
+  {
+    JsonReader solver = root.object("solver", "linear solver of the pressure system");
+    auto& o = scene.solver;
+    o.method = solver.choice("method", o.method, {"auto", "pcg", "cholmod"},
+                             "auto: CHOLMOD up to cholmod_max_unknowns unknowns, PCG above; pcg; cholmod (direct)");
+    o.preconditioner = solver.choice("preconditioner", o.preconditioner, {"mic0", "jacobi"}, "PCG preconditioner");
+    o.tolerance = solver.number("tolerance", o.tolerance, 0, 1, "PCG relative residual tolerance", true);
+    o.max_iterations = solver.integer("max_iterations", o.max_iterations, 1, 1000000, "PCG iteration cap; reaching it stops the run");
+    o.mic_relaxation = solver.number("mic_relaxation", o.mic_relaxation, 0, 1, "MIC(0) relaxation omega (0 = IC(0))");
+    o.cholmod_max_unknowns = solver.integer("cholmod_max_unknowns", o.cholmod_max_unknowns, 0, std::numeric_limits<int>::max(), "auto: largest system solved by CHOLMOD");
+    o.warm_start = solver.boolean("warm_start", o.warm_start, "PCG starts from the previous step's pressures");
+    solver.finish();
+  }
+  for (auto& probe : root.objects("probes", "metrics written to metrics.csv every step"))
+    scene.probes.push_back(read_probe(probe, dim, scene.domain_min, scene.domain_max));
+  if (docs) {
+    Json example = {{"type", "front"}};
+    JsonReader probe(example, "probes[]", docs);
+    read_probe(probe, dim, scene.domain_min, scene.domain_max);
+  }
+  root.finish();
+  if (!docs) {
+    for (std::size_t i = 0; i < scene.probes.size(); ++i)
+      for (std::size_t j = 0; j < i; ++j)
+        if (scene.probes[i].name == scene.probes[j].name)
+          throw InputError(fmt::format("scene key 'probes[{}].name' = \"{}\": already used by probes[{}]", i, scene.probes[i].name, j));
+    if (scene.fluid.shapes.empty()) throw InputError("scene key 'fluid.shapes': the scene has no material (give at least one shape)");
+  }
+  return scene;
+}
+
+}  // namespace
+
+bool ShapeSpec::contains(const Real* x, int dim) const {
+  if (type == "box") {
+    for (int a = 0; a < dim; ++a)
+      if (x[a] < min[a] || x[a] > max[a]) return false;
+    return true;
+  }
+  if (type == "sphere") {
+    Real r2 = 0;
+    for (int a = 0; a < dim; ++a) r2 += (x[a] - centre[a]) * (x[a] - centre[a]);
+    return r2 <= radius * radius;
+  }
+  // polygon: even-odd rule
+  bool inside = false;
+  const std::size_t n = vertices.size() / 2;
+  for (std::size_t i = 0, j = n - 1; i < n; j = i++) {
+    const Real xi = vertices[2 * i], yi = vertices[2 * i + 1], xj = vertices[2 * j], yj = vertices[2 * j + 1];
+    if ((yi > x[1]) != (yj > x[1]) && x[0] < (xj - xi) * (x[1] - yi) / (yj - yi) + xi) inside = !inside;
+  }
+  return inside;
+}
+
+SceneSpec read_scene(const Json& document) { return read(document, nullptr); }
+
+SceneSpec load_scene(const std::string& path, const std::vector<std::string>& overrides) {
+  std::ifstream in(path);
+  if (!in) throw InputError(fmt::format("cannot open scene file '{}'", path));
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  Json document;
+  try {
+    document = Json::parse(buffer.str());
+  } catch (const Json::parse_error& e) {
+    throw InputError(fmt::format("scene file '{}' is not valid JSON: {}", path, e.what()));
+  }
+  for (const auto& assignment : overrides) apply_override(document, assignment);
+  return read_scene(document);
+}
+
+std::vector<KeyDoc> document_scene_keys() {
+  std::vector<KeyDoc> docs;
+  read(Json::object(), &docs);
+  return docs;
+}
+
+}  // namespace iqmpm

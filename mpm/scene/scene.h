@@ -1,0 +1,69 @@
+// A validated scene: everything a run needs, read from a JSON file (scene.cpp holds the
+// single table of keys, defaults and accepted values; `iqmpm keys` prints it).
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "linear_solver/linear_solver.h"
+#include "scene/json_reader.h"
+
+namespace iqmpm {
+
+struct ShapeSpec {
+  std::string type;              // box | sphere | polygon
+  std::vector<Real> min, max;    // box
+  std::vector<Real> centre;      // sphere (a disk in 2-D)
+  Real radius = 0;
+  std::vector<Real> vertices;    // polygon (2-D): x0, y0, x1, y1, ...
+  bool contains(const Real* x, int dim) const;
+};
+
+struct ProbeSpec {
+  std::string type;   // front | water_height | pressure | wall_force | max_speed | volume | hydrostatic_pressure_error
+  std::string name;   // metrics.csv column
+  int axis = 0;               // front: direction of travel
+  Real band = -1;             // front: particles below this height count; water_height: half-width (m); -1 = one cell
+  Real position = 0;          // water_height: coordinate along the first axis
+  std::vector<Real> point;    // pressure
+  int wall_axis = 0, wall_side = 0;  // wall_force
+  Real surface = 0;           // hydrostatic_pressure_error: still-water level
+};
+
+struct FluidSpec {
+  Real density = 1000;
+  std::vector<ShapeSpec> shapes;
+  std::vector<Real> initial_velocity;
+  std::string surface_quadrature = "particles";  // particles | centre
+};
+
+struct SceneSpec {
+  std::string name, description;
+  int dim = 2;
+  std::vector<Real> domain_min, domain_max;
+  Real dx = 0;
+  int particles_per_axis = 2;
+  Real jitter = 0;
+  unsigned seed = 1;
+  std::vector<Real> gravity;
+  Real end_time = 1;
+  Real frame_rate = 0;     // output frames per second of simulated time; 0: first and last only
+  bool write_frames = true;
+  Real cfl = 0.5;
+  Real dt_min = 1e-7, dt_max = 1e-2;
+  std::array<std::array<std::string, 2>, 3> walls;  // [axis][side]: slip | none
+  FluidSpec fluid;
+  LinearSolverOptions solver;
+  std::vector<ProbeSpec> probes;
+  Json document;  // the scene as given (after --set), stored in summary.json
+};
+
+// Reads and validates; throws InputError naming the key.
+SceneSpec read_scene(const Json& document);
+// Loads a file, applies --set overrides and validates.
+SceneSpec load_scene(const std::string& path, const std::vector<std::string>& overrides);
+// The reference table of all scene keys, from the same code that reads them.
+std::vector<KeyDoc> document_scene_keys();
+
+}  // namespace iqmpm

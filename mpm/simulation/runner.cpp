@@ -1,0 +1,156 @@
+#include "simulation/runner.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <memory>
+
+#include "core/config.h"
+#include "core/errors.h"
+#include "core/log.h"
+#include "io/output_writer.h"
+#include "probes/probes.h"
+#include "simulation/simulation.h"
+
+namespace iqmpm {
+namespace {
+
+template <int dim>
+ParticleFrame make_frame(const Simulation<dim>& sim, double time) {
+  ParticleFrame frame;
+  const auto& fluid = sim.fluid();
+  frame.time = time;
+  frame.count = int(fluid.size());
+  frame.position.assign(3 * frame.count, 0);
+  frame.velocity.assign(3 * frame.count, 0);
+  frame.pressure = sim.fluid_particle_pressure();
+  frame.material.assign(frame.count, 0);
+  for (int p = 0; p < frame.count; ++p)
+    for (int a = 0; a < dim; ++a) {
+      frame.position[3 * p + a] = fluid.position[p][a];
+      frame.velocity[3 * p + a] = fluid.velocity[p][a];
+    }
+  return frame;
+}
+
+template <int dim>
+RunResult run(const SceneSpec& scene, const RunOptions& options) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count(); };
+  RunResult result;
+  Simulation<dim> sim(scene);  // input errors surface here, before any file is written
+  std::unique_ptr<OutputWriter> writer;
+  if (!options.out_dir.empty()) writer = std::make_unique<OutputWriter>(options.out_dir);
+
+  result.columns.push_back("t");
+  for (const auto& probe : scene.probes) result.columns.push_back(probe.name);
+  auto sample = [&](double t) {
+    std::vector<double> row{t};
+    for (const auto& probe : scene.probes) row.push_back(evaluate_probe(sim, probe));
+    result.metrics.push_back(std::move(row));
+  };
+
+  const double end_time = scene.end_time;
+  const double frame_interval = scene.frame_rate > 0 ? 1.0 / scene.frame_rate : end_time;
+  double next_frame = frame_interval;
+  const double initial_volume = sim.fluid_volume();
+  double t = 0;
+  long steps = 0;
+  int max_active_cells = 0;
+  long iterations_total = 0;
+  int iterations_min = std::numeric_limits<int>::max(), iterations_max = 0;
+  int wall_clamps = 0;
+  std::string linear_method;
+  std::string status = "ok";
+
+  sample(0);
+  if (writer && scene.write_frames) writer->write_frame(make_frame(sim, 0));
+  try {
+    while (t < end_time * (1 - 1e-12)) {
+      // Clamp to frame times and to the end (method.md §3, time step).
+      double dt = sim.stable_dt();
+      const double next_stop = std::min(next_frame, end_time);
+      if (t + dt > next_stop - 1e-12 * end_time) dt = next_stop - t;
+      else if (t + 2 * dt > next_stop) dt = 0.5 * (next_stop - t);  // avoid a sliver step
+      sim.step(dt);
+      t = (t + dt > next_stop - 1e-12 * end_time) ? next_stop : t + dt;
+      ++steps;
+      const auto& stats = sim.last_step();
+      max_active_cells = std::max(max_active_cells, stats.pressure_unknowns);
+      iterations_total += stats.linear.iterations;
+      iterations_min = std::min(iterations_min, stats.linear.iterations);
+      iterations_max = std::max(iterations_max, stats.linear.iterations);
+      wall_clamps += stats.wall_clamps;
+      linear_method = stats.linear.method;
+      sample(t);
+      for (std::size_t c = 1; c < result.metrics.back().size(); ++c)
+        if (std::isinf(result.metrics.back()[c]))
+          throw NumericalFailure(fmt::format("metric '{}' is infinite at t = {:.4g} s", result.columns[c], t));
+      if (t >= next_frame - 1e-12 * end_time) {
+        if (writer && scene.write_frames && (scene.frame_rate > 0 || t >= end_time * (1 - 1e-12)))
+          writer->write_frame(make_frame(sim, t));
+        next_frame += frame_interval;
+      }
+      if (options.on_progress)
+        options.on_progress({t, end_time, dt, elapsed(), steps, stats.linear.iterations});
+    }
+  } catch (const NumericalFailure& failure) {
+    status = fmt::format("failed at t = {:.6g} s, step {}: {}", t, steps + 1, failure.what());
+    logger()->error("{}", status);
+  }
+
+  const double final_volume = sim.fluid_volume();
+  Json stage_seconds = Json::object();
+  for (const auto& [stage, seconds] : sim.timer().stages()) stage_seconds[stage] = seconds;
+  Json summary = {
+      {"status", status},
+      {"scene_name", scene.name},
+      {"dim", dim},
+      {"dx", scene.dx},
+      {"end_time", end_time},
+      {"t_final", t},
+      {"wall_time_s", elapsed()},
+      {"steps", steps},
+      {"particles", sim.fluid().size()},
+      {"fluid_particles", sim.fluid().size()},
+      {"solid_particles", 0},
+      {"active_cells", sim.last_step().pressure_unknowns},
+      {"active_cells_max", max_active_cells},
+      {"stage_seconds", stage_seconds},
+      {"linear_solver", linear_method},
+      {"linear_iterations",
+       {{"min", steps ? iterations_min : 0}, {"mean", steps ? double(iterations_total) / steps : 0.0}, {"max", iterations_max}}},
+      {"newton_iterations", {{"min", 0}, {"mean", 0.0}, {"max", 0}}},
+      {"wall_clamps", wall_clamps},
+      {"initial_volume", initial_volume},
+      {"final_volume", final_volume},
+      {"volume_drift", (final_volume - initial_volume) / initial_volume},
+      {"threads", omp_get_max_threads()},
+      {"version", IQMPM_VERSION},
+      {"scene", scene.document},
+  };
+  Json final_metrics = Json::object();
+  for (std::size_t c = 1; c < result.columns.size(); ++c) {
+    const double v = result.metrics.back()[c];
+    final_metrics[result.columns[c]] = std::isfinite(v) ? Json(v) : Json(nullptr);
+  }
+  summary["final_metrics"] = final_metrics;
+  result.ok = status == "ok";
+  result.summary = summary;
+  if (writer) {
+    writer->write_metrics(result.columns, result.metrics);
+    writer->write_summary(summary);
+  }
+  return result;
+}
+
+}  // namespace
+
+RunResult run_scene(const SceneSpec& scene, const RunOptions& options) {
+  return scene.dim == 2 ? run<2>(scene, options) : run<3>(scene, options);
+}
+
+}  // namespace iqmpm

@@ -1,0 +1,32 @@
+// Runs a scene to its end time: the time loop, probes, frames, summary (the output
+// contract of benchmarks.md). A numerical failure ends the run with status != "ok".
+#pragma once
+
+#include <functional>
+#include <string>
+
+#include "scene/scene.h"
+
+namespace iqmpm {
+
+struct RunProgress {
+  double time = 0, end_time = 0, dt = 0, elapsed_s = 0;
+  long steps = 0;
+  int linear_iterations = 0;
+};
+
+struct RunOptions {
+  std::string out_dir;  // empty: no files written (tests)
+  std::function<void(const RunProgress&)> on_progress;  // called after every step
+};
+
+struct RunResult {
+  bool ok = false;
+  Json summary;
+  std::vector<std::string> columns;          // metrics.csv header
+  std::vector<std::vector<double>> metrics;  // metrics.csv rows
+};
+
+RunResult run_scene(const SceneSpec& scene, const RunOptions& options);
+
+}  // namespace iqmpm

@@ -1,0 +1,88 @@
+"""Error measures on synthetic series with known answers."""
+
+import math
+
+import numpy as np
+import pytest
+
+from compare.errors import Series, on_common_times, relative_error, series_error
+from compare.io import CompareError
+
+
+def test_relative_l2_of_scaled_series_is_the_scale():
+    t = np.linspace(0.0, 1.0, 101)
+    ref = Series.of(t, 1.0 + np.sin(3 * t), "ref")
+    ours = Series.of(t, 1.1 * (1.0 + np.sin(3 * t)), "ours")
+    e = series_error(ours, ref)
+    assert e.rel_l2 == pytest.approx(0.1, rel=1e-12)
+    assert e.peak_rel_error == pytest.approx(0.1, rel=1e-12)
+    assert e.peak_time_error == pytest.approx(0.0)
+
+
+def test_relative_l2_against_constant_offset():
+    t = np.linspace(0.0, 2.0, 11)
+    e = series_error(Series.of(t, np.full_like(t, 3.0)), Series.of(t, np.full_like(t, 2.0)))
+    assert e.rel_l2 == pytest.approx(0.5)
+    assert e.rms == pytest.approx(1.0)
+
+
+def test_finer_series_is_interpolated_onto_coarser_times():
+    t_fine = np.linspace(0.0, 1.0, 1001)
+    t_coarse = np.linspace(0.0, 1.0, 11)
+    ours = Series.of(t_fine, 2.0 * t_fine + 1.0)  # linear: interpolation is exact
+    ref = Series.of(t_coarse, 2.0 * t_coarse + 1.0)
+    t, y, r = on_common_times(ours, ref)
+    np.testing.assert_allclose(t, t_coarse)
+    np.testing.assert_allclose(y, r)
+    assert series_error(ours, ref).rel_l2 == pytest.approx(0.0, abs=1e-12)
+    # and the other way round: the reference is the finer one
+    t2, y2, r2 = on_common_times(Series.of(t_coarse, t_coarse**2), Series.of(t_fine, t_fine**2))
+    np.testing.assert_allclose(t2, t_coarse)
+    np.testing.assert_allclose(r2, t_coarse**2, atol=1e-6)
+
+
+def test_common_window_is_the_overlap():
+    ours = Series.of(np.linspace(0.0, 2.0, 21), np.ones(21))
+    ref = Series.of(np.linspace(0.5, 3.0, 26), np.ones(26))
+    e = series_error(ours, ref)
+    assert e.window == (pytest.approx(0.5), pytest.approx(2.0))
+    assert e.n_points == 16  # ours is coarser (16 samples in [0.5, 2] vs 16): ties -> ref
+    t, _, _ = on_common_times(ours, ref)
+    assert t[0] == pytest.approx(0.5) and t[-1] == pytest.approx(2.0)
+
+
+def test_peak_value_and_time_errors():
+    t = np.linspace(0.0, 1.0, 1001)
+    ref = Series.of(t, np.exp(-((t - 0.40) / 0.05) ** 2))
+    ours = Series.of(t, 1.2 * np.exp(-((t - 0.45) / 0.05) ** 2))
+    e = series_error(ours, ref)
+    assert e.peak_ref == pytest.approx(1.0)
+    assert e.peak_rel_error == pytest.approx(0.2, rel=1e-9)
+    assert e.t_peak_ref == pytest.approx(0.40)
+    assert e.peak_time_error == pytest.approx(0.05, abs=1e-9)
+
+
+def test_negative_peak_keeps_sign():
+    t = np.linspace(0, 1, 11)
+    e = series_error(Series.of(t, -2 * t), Series.of(t, -t))
+    assert e.peak_ours == -2.0 and e.peak_ref == -1.0
+    assert e.peak_rel_error == pytest.approx(-1.0)
+
+
+def test_nan_samples_are_dropped():
+    t = np.linspace(0, 1, 11)
+    y = t + 1
+    y_nan = y.copy()
+    y_nan[3] = np.nan
+    assert series_error(Series.of(t, y_nan), Series.of(t, y)).rel_l2 == pytest.approx(0.0)
+
+
+def test_disjoint_series_raise_clear_error():
+    with pytest.raises(CompareError, match="do not overlap"):
+        series_error(Series.of([0.0, 1.0], [1, 1], "a"), Series.of([2.0, 3.0], [1, 1], "b"))
+
+
+def test_scalar_relative_error():
+    assert relative_error(3.386 * 1.05, 3.386) == pytest.approx(0.05)
+    assert relative_error(-1.1, -1.0) == pytest.approx(-0.1)
+    assert math.isnan(relative_error(1.0, 0.0))

@@ -1,0 +1,57 @@
+// Short hydrostatic regressions (benchmarks.md, hydrostatic), run through the same
+// runner as `iqmpm run`. The benchmark layout (surface on a cell face, regular seeding) is
+// an exact discrete equilibrium of the Q1-P0 scheme: pressure, wall force and rest are
+// reproduced to round-off. The perturbed layout (jittered particles, surface inside a
+// cell) is not, and its margins are stated beside each assertion.
+#include "simulation/runner.h"
+#include "test_helpers.h"
+
+namespace iqmpm {
+namespace {
+
+template <class D>
+class HydrostaticTest : public ::testing::Test {
+ protected:
+  static constexpr int dim = D::value;
+
+  static SceneSpec scene(const std::vector<std::string>& overrides) {
+    const std::string path = std::string(IQMPM_BENCHMARKS_DIR) + (dim == 2 ? "/hydrostatic/hydrostatic_2d.json" : "/hydrostatic/hydrostatic_3d.json");
+    std::vector<std::string> all = {"end_time=0.5", "dx=" + std::string(dim == 2 ? "0.03125" : "0.125")};
+    all.insert(all.end(), overrides.begin(), overrides.end());
+    return load_scene(path, all);
+  }
+
+  static double metric(const RunResult& result, const std::string& name) {
+    for (std::size_t c = 0; c < result.columns.size(); ++c)
+      if (result.columns[c] == name) return result.metrics.back()[c];
+    ADD_FAILURE() << "no metric " << name;
+    return 0;
+  }
+
+  // Force on the x+ wall: rho g H^2 / 2 per unit width (times the 1 m depth in 3-D).
+  static double wall_force(double H) { return 1000 * 9.81 * H * H / 2; }
+};
+TYPED_TEST_SUITE(HydrostaticTest, testing::Dimensions);
+
+TYPED_TEST(HydrostaticTest, AlignedColumnIsExactDiscreteEquilibrium) {
+  const RunResult result = run_scene(this->scene({}), {});
+  ASSERT_TRUE(result.ok) << result.summary["status"];
+  EXPECT_LT(this->metric(result, "pressure_l2_error"), 1e-9);
+  EXPECT_NEAR(this->metric(result, "wall_force_x"), this->wall_force(0.5), 1e-9 * this->wall_force(0.5));
+  EXPECT_LT(this->metric(result, "max_speed"), 1e-9);
+  EXPECT_NEAR(result.summary["volume_drift"].template get<double>(), 0.0, 1e-12);
+}
+
+TYPED_TEST(HydrostaticTest, PerturbedColumnStaysNearEquilibrium) {
+  const RunResult result = run_scene(
+      this->scene({"jitter=0.5", "fluid.shapes.0.max.1=0.49", "probes.0.surface=0.49"}), {});
+  ASSERT_TRUE(result.ok) << result.summary["status"];
+  // Margins: measured values (0.5 s) are below half of each bound; see the closing note.
+  EXPECT_LT(this->metric(result, "pressure_l2_error"), 0.03);                                   // 3 %
+  EXPECT_NEAR(this->metric(result, "wall_force_x"), this->wall_force(0.49), 0.03 * this->wall_force(0.49));  // 3 %
+  EXPECT_LT(this->metric(result, "max_speed"), 0.1);                                            // m/s
+  EXPECT_LT(std::abs(result.summary["volume_drift"].template get<double>()), 0.05);
+}
+
+}  // namespace
+}  // namespace iqmpm

@@ -1,0 +1,129 @@
+"""CI checks of foam_cases/run (the OpenFOAM reference-case driver).
+
+Run from the repository root:  /usr/bin/python3 -m pytest -q tests/foam
+The OpenFOAM runs are skipped, with the reason shown, only where OpenFOAM is
+not installed (no /usr/share/openfoam/etc/bashrc).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+RUN = REPO / "foam_cases" / "run"
+BASHRC = Path("/usr/share/openfoam/etc/bashrc")
+
+needs_openfoam = pytest.mark.skipif(
+    not BASHRC.exists(), reason=f"OpenFOAM not installed ({BASHRC} missing)")
+
+
+def run(*args: str, timeout: float = 150) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, str(RUN), *args], cwd=REPO,
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def test_unknown_case_is_a_clear_error(tmp_path: Path) -> None:
+    r = run("no_such_case", "--level", "1", "--out", str(tmp_path))
+    assert r.returncode == 2
+    assert "unknown case 'no_such_case'" in r.stderr
+    for name in ("dam_break", "dam_break_obstacle", "hydrostatic", "floating_block",
+                 "floating_block_roll", "floating_block_light", "cantilever"):
+        assert name in r.stderr
+    assert not (tmp_path / "summary.json").exists()
+
+
+def test_unknown_level_is_a_clear_error(tmp_path: Path) -> None:
+    r = run("dam_break", "--level", "9", "--out", str(tmp_path))
+    assert r.returncode == 2
+    assert "unknown level 9" in r.stderr and "accepted levels: 1, 2, 3, 4" in r.stderr
+
+
+def test_malformed_set_is_a_clear_error(tmp_path: Path) -> None:
+    r = run("dam_break", "--level", "1", "--set", "controlDict", "--out", str(tmp_path))
+    assert r.returncode == 2
+    assert "FILE:ENTRY=VALUE" in r.stderr
+
+
+@needs_openfoam
+def test_dam_break_short_run_extracts_metrics(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    r = run("dam_break", "--level", "1", "--end-time", "0.05", "--out", str(out))
+    assert r.returncode == 0, r.stdout + r.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "ok"
+    for key in ("wall_time_s", "steps", "cells", "level", "case", "end_time", "solver",
+                "openfoam_version"):
+        assert key in summary, key
+    assert summary["case"] == "dam_break" and summary["level"] == 1
+    assert summary["cells"] == 1600 and summary["steps"] > 10
+    assert summary["end_time"] == pytest.approx(0.05)
+    with open(out / "metrics.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert rows, "metrics.csv has no rows"
+    assert list(rows[0])[:1] == ["t"]
+    for col in ("front_x", "height_left", "pressure_right", "volume"):
+        assert col in rows[0], col
+        assert all(math.isfinite(float(r[col])) for r in rows), col
+    assert float(rows[-1]["t"]) == pytest.approx(0.05)
+    # Physical sanity at t = 0.05 s: the front has left x = a, the column
+    # has dropped, the water volume is a x 2a per unit depth.
+    assert 0.146 < float(rows[-1]["front_x"]) < 0.3
+    assert 0.2 < float(rows[-1]["height_left"]) < 0.292
+    assert float(rows[-1]["volume"]) == pytest.approx(0.146 * 0.292, rel=1e-3)
+    vtk = sorted(p.name for p in (out / "VTK").glob("*.vtu"))
+    assert vtk == ["dam_break_0.05.vtu", "dam_break_0.vtu"]
+
+
+@needs_openfoam
+def test_failed_openfoam_run_is_reported_not_extracted(tmp_path: Path) -> None:
+    # A real solver failure: an unknown linear solver for p_rgh makes interFoam
+    # stop with a FOAM FATAL ERROR at its first pressure solve.
+    out = tmp_path / "out"
+    r = run("dam_break", "--level", "1", "--end-time", "0.01", "--out", str(out),
+            "--set", "system/fvSolution:solvers/p_rgh/solver=noSuchSolver")
+    assert r.returncode == 1
+    assert "FAILED" in r.stderr and "last lines of the log" in r.stderr
+    assert "noSuchSolver" in r.stderr          # the log tail is printed
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] != "ok" and summary["status"].startswith("failed")
+    assert "noSuchSolver" in summary["log_tail"]
+    assert not (out / "metrics.csv").exists()
+
+
+@needs_openfoam
+def test_diverging_run_is_reported_failed(tmp_path: Path) -> None:
+    # A genuine divergence (a finding of this project, foam_cases/floating_block/
+    # README.md): the floating block blows up near t = 0.06 s at level 1 and
+    # floating-point trapping stops interFoam.
+    out = tmp_path / "out"
+    r = run("floating_block", "--level", "1", "--end-time", "0.1", "--out", str(out),
+            "--no-vtk")
+    assert r.returncode == 1, r.stdout + r.stderr
+    assert "last lines of the log" in r.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"].startswith("failed")
+    assert summary["log_tail"]
+    assert not (out / "metrics.csv").exists()
+
+
+@needs_openfoam
+def test_run_past_its_stability_limit_is_reported_failed(tmp_path: Path) -> None:
+    # A fixed time step of 0.05 s (Courant number > 100) does not crash
+    # interFoam (MULES keeps alpha bounded) but the result is meaningless;
+    # the driver must not extract it as fine.
+    out = tmp_path / "out"
+    r = run("dam_break", "--level", "1", "--end-time", "0.3", "--out", str(out),
+            "--no-vtk",
+            "--set", "system/controlDict:adjustTimeStep=no",
+            "--set", "system/controlDict:deltaT=0.05")
+    assert r.returncode == 1, r.stdout + r.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"].startswith("failed: unstable run: max Courant number")
+    assert not (out / "metrics.csv").exists()
