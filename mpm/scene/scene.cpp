@@ -153,12 +153,11 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
     JsonReader solver = root.object("solver", "linear solver of the pressure system");
     auto& o = scene.solver;
     o.method = solver.choice("method", o.method, {"auto", "pcg", "cholmod"},
-                             "auto: CHOLMOD up to cholmod_max_unknowns unknowns, PCG above; pcg; cholmod (direct)");
-    o.preconditioner = solver.choice("preconditioner", o.preconditioner, {"mic0", "jacobi"}, "PCG preconditioner");
+                             "auto: CHOLMOD in 2-D up to cholmod_max_unknowns unknowns, PCG otherwise (measured fastest); pcg; cholmod (direct)");
+    o.preconditioner = solver.choice("preconditioner", o.preconditioner, {"ichol", "jacobi"}, "PCG preconditioner: incomplete Cholesky (threshold fill, AMD ordering) or Jacobi");
     o.tolerance = solver.number("tolerance", o.tolerance, 0, 1, "PCG relative residual tolerance", true);
     o.max_iterations = solver.integer("max_iterations", o.max_iterations, 1, 1000000, "PCG iteration cap; reaching it stops the run");
-    o.mic_relaxation = solver.number("mic_relaxation", o.mic_relaxation, 0, 1, "MIC(0) relaxation omega (0 = IC(0))");
-    o.cholmod_max_unknowns = solver.integer("cholmod_max_unknowns", o.cholmod_max_unknowns, 0, std::numeric_limits<int>::max(), "auto: largest system solved by CHOLMOD");
+    o.cholmod_max_unknowns = solver.integer("cholmod_max_unknowns", o.cholmod_max_unknowns, 0, std::numeric_limits<int>::max(), "auto: largest 2-D system solved by CHOLMOD");
     o.warm_start = solver.boolean("warm_start", o.warm_start, "PCG starts from the previous step's pressures");
     solver.finish();
   }

@@ -118,7 +118,7 @@ void Simulation<dim>::solve_pressure_system() {
     auto it = previous_wall_.find({face.dual_cell, face.wall.axis * 2 + face.wall.side});
     x[np + f] = it == previous_wall_.end() ? 0 : it->second;
   }
-  auto solver = make_linear_solver(scene_.solver, system_.unknowns());
+  auto solver = make_linear_solver(scene_.solver, system_.unknowns(), dim);
   last_.linear = solver->solve(system_.matrix(), rhs, x);
   if (!last_.linear.converged || !x.allFinite())
     throw NumericalFailure(fmt::format(
