@@ -272,26 +272,22 @@ FLOATING = {
 
 
 def floating_params(variant: FloatingVariant, level: int) -> Params:
+    """caseParams of the overset formulation (README: floating_block)."""
     h = 0.02 / 2 ** (level - 1)
     n = lambda length: int(round(length / h))  # noqa: E731
-    nxL, nxB, nyB, nyM, nyT = n(0.4), n(0.2), n(0.47), n(0.1), n(0.43)
-    th = math.radians(variant.tilt_deg)
-    c, s = math.cos(th), math.sin(th)
-
-    def corner(dx: float, dy: float) -> tuple[float, float]:
-        return (BLOCK_C0[0] + c * dx - s * dy, BLOCK_C0[1] + s * dx + c * dy)
-
-    bl, br = corner(-0.1, -0.05), corner(0.1, -0.05)
-    tr, tl = corner(0.1, 0.05), corner(-0.1, 0.05)
     dz = 0.01
     mass = variant.rho_solid * BLOCK_W * BLOCK_H * dz
+    th = math.radians(variant.tilt_deg)
+    c, s = math.cos(th), math.sin(th)
+    n_bg, nx_body, ny_body = n(1.0), n(0.4), n(0.3)
     return {
-        "level": level, "cells": (2 * nxL + nxB) * (nyB + nyT) + 2 * nxL * nyM,
+        "level": level,
+        # background + body mesh minus the cut-out block
+        "cells": n_bg ** 2 + nx_body * ny_body - n(BLOCK_W) * n(BLOCK_H),
         "dz": dz, "zMid": dz / 2,
         "endTime": 5.0, "writeInterval": 0.5, "sampleInterval": 0.01,
-        "nxL": nxL, "nxB": nxB, "nxR": nxL, "nyB": nyB, "nyM": nyM, "nyT": nyT,
-        "blx": bl[0], "bly": bl[1], "brx": br[0], "bry": br[1],
-        "trx": tr[0], "try": tr[1], "tlx": tl[0], "tly": tl[1],
+        "nBg": n_bg, "nxBody": nx_body, "nyBody": ny_body,
+        "tiltDeg": variant.tilt_deg,
         "rhoSolid": variant.rho_solid, "mass": mass,
         "Ixx": mass * (BLOCK_H ** 2 + dz ** 2) / 12,
         "Iyy": mass * (BLOCK_W ** 2 + dz ** 2) / 12,
@@ -300,10 +296,27 @@ def floating_params(variant: FloatingVariant, level: int) -> Params:
         "orientation": (c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0),
         "accelerationRelaxation": variant.acceleration_relaxation,
         "accelerationDamping": 1.0,
-        "innerDistance": 0.02, "outerDistance": 0.3,
-        "nOuterCorrectors": variant.n_outer, "momentumPredictor": "yes",
+        "nOuterCorrectors": variant.n_outer,
         "maxCo": 0.5, "maxAlphaCo": 0.5, "maxDeltaT": 0.005,
     }
+
+
+def floating_setup(variant: FloatingVariant) -> tuple[tuple[str, ...], ...]:
+    """Overset meshing: body mesh (folder body/), cut, tilt, place, merge."""
+    return (
+        ("blockMesh", "-case", "body"),
+        ("topoSet", "-case", "body"),
+        ("subsetMesh", "-case", "body", "-overwrite", "c0", "-patch", "floatingObject"),
+        ("transformPoints", "-case", "body", "-rotate-angle",
+         f"((0 0 1) {variant.tilt_deg:.12g})"),
+        ("transformPoints", "-case", "body", "-translate",
+         f"({BLOCK_C0[0]:.12g} {BLOCK_C0[1]:.12g} 0)"),
+        ("blockMesh",),
+        ("mergeMeshes", ".", "body", "-overwrite"),
+        ("topoSet",),
+        ("setFields",),
+        ("setAlphaField",),
+    )
 
 
 def _crossing_period(t: np.ndarray, y: np.ndarray, t_max: float) -> float | None:
@@ -317,6 +330,16 @@ def _crossing_period(t: np.ndarray, y: np.ndarray, t_max: float) -> float | None
         return None
     tc = tt[idx] - dd[idx] * (tt[idx + 1] - tt[idx]) / (dd[idx + 1] - dd[idx])
     return float(2 * np.mean(np.diff(tc)))
+
+
+def overset_volume(case: Path, dz: float) -> m.Series:
+    """Water area of the background mesh less its hole cells (controlDict:
+    waterVolume - (waterVolumeCC - waterVolumeC) / 2, per unit depth)."""
+    t, v = m.volume(case, dz, "waterVolume")
+    tc, vc = m.volume(case, dz, "waterVolumeC")
+    tcc, vcc = m.volume(case, dz, "waterVolumeCC")
+    n = min(len(t), len(tc), len(tcc))
+    return t[:n], v[:n] - 0.5 * (vcc[:n] - vc[:n])
 
 
 def floating_extract(case: Path, p: Params, log: Path) -> Extracted:
@@ -360,10 +383,10 @@ def floating_extract(case: Path, p: Params, log: Path) -> Extracted:
 FLOAT_FIELDS = ("alpha.water", "p", "p_rgh", "U")
 for _name, _variant in FLOATING.items():
     register(CaseSpec(
-        name=_name, folder="floating_block", solver="interFoam", end_time=5.0,
+        name=_name, folder="floating_block", solver="overInterDyMFoam", end_time=5.0,
         levels=(1, 2, 3),
         params=(lambda lv, v=_variant: floating_params(v, lv)),
-        setup=(("blockMesh",), ("setAlphaField",)),
+        setup=floating_setup(_variant),
         extract=floating_extract, vtk_fields=FLOAT_FIELDS,
         summary=f"floating block rho_s = {_variant.rho_solid:g}, tilt {_variant.tilt_deg:g} deg"))
 

@@ -162,8 +162,13 @@ def run_case(args: argparse.Namespace, spec: CaseSpec) -> int:
             set_entry(work, file, entry, value)
 
         setup_wall = 0.0
+        used: dict[str, int] = {}
         for cmd in spec.setup:
-            setup_wall += run_tool(work, list(cmd), cmd[0])
+            # A tool run twice (floating_block: body and background mesh)
+            # logs to log.<tool>, then log.<tool>.2, ...
+            used[cmd[0]] = used.get(cmd[0], 0) + 1
+            log_name = cmd[0] if used[cmd[0]] == 1 else f"{cmd[0]}.{used[cmd[0]]}"
+            setup_wall += run_tool(work, list(cmd), log_name)
         summary["setup_wall_time_s"] = round(setup_wall, 3)
 
         if args.nprocs > 1:

@@ -3,6 +3,7 @@
 #include <Eigen/CholmodSupport>
 #include <Eigen/IterativeLinearSolvers>
 #include <Eigen/OrderingMethods>
+#include <Eigen/SparseCholesky>
 #include <algorithm>
 #include <cmath>
 #include <vector>
@@ -84,10 +85,34 @@ class CholmodSolver final : public LinearSolver {
   LinearSolveStats solve(const Sparse& A, const Eigen::VectorXd& b, Eigen::VectorXd& x) override {
     LinearSolveStats stats;
     stats.method = "cholmod";
-    Eigen::CholmodDecomposition<Sparse, Eigen::Lower> factor;  // CHOLMOD picks simplicial or supernodal
+    Eigen::CholmodDecomposition<Sparse, Eigen::Lower> factor;
+    // Simplicial LL^T with AMD ordering: on the 2-D dam break at dx = a/64 (8.5k unknowns)
+    // the supernodal factorisation took 46 ms a solve against 21 ms (benchmarks/solvers).
+    factor.cholmod().nmethods = 1;
+    factor.cholmod().method[0].ordering = CHOLMOD_AMD;
+    factor.setMode(Eigen::CholmodSimplicialLLt);
     factor.compute(A);
     if (factor.info() != Eigen::Success) {
       stats.converged = false;
+      stats.relative_residual = 1;
+      return stats;
+    }
+    x = factor.solve(b);
+    const Real b_norm = b.norm();
+    stats.relative_residual = b_norm > 0 ? (b - A * x).norm() / b_norm : 0;
+    stats.converged = std::isfinite(stats.relative_residual);
+    return stats;
+  }
+};
+
+// Eigen's simplicial LDL^T with AMD ordering: no external library, for comparison.
+class LdltSolver final : public LinearSolver {
+ public:
+  LinearSolveStats solve(const Sparse& A, const Eigen::VectorXd& b, Eigen::VectorXd& x) override {
+    LinearSolveStats stats;
+    stats.method = "ldlt";
+    Eigen::SimplicialLDLT<Sparse, Eigen::Lower> factor(A);
+    if (factor.info() != Eigen::Success) {
       stats.relative_residual = 1;
       return stats;
     }
@@ -105,6 +130,7 @@ std::unique_ptr<LinearSolver> make_linear_solver(const LinearSolverOptions& opti
   if (options.method == "cholmod" ||
       (options.method == "auto" && dim == 2 && unknowns <= options.cholmod_max_unknowns))
     return std::make_unique<CholmodSolver>();
+  if (options.method == "ldlt") return std::make_unique<LdltSolver>();
   return std::make_unique<PcgSolver>(options);
 }
 

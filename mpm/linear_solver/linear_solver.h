@@ -11,7 +11,7 @@
 namespace iqmpm {
 
 struct LinearSolverOptions {
-  std::string method = "auto";          // auto | pcg | cholmod
+  std::string method = "auto";          // auto | pcg | cholmod | ldlt
   std::string preconditioner = "ichol";  // ichol | jacobi (pcg only)
   Real tolerance = 1e-6;                // relative residual ||b - A x|| / ||b||
   int max_iterations = 2000;

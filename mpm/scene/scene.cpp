@@ -139,6 +139,10 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
         "surface_quadrature", "particles", {"particles", "centre"},
         "quadrature of G^f and M^f in fluid cells next to empty ones: particles (method.md §4) or one point at the "
         "cell centre weighted by the particles' volume");
+    scene.fluid.position_correction = fluid.number(
+        "position_correction", 0, 0, 1,
+        "relaxation of the particle position correction after each step (method.md §3 step 6): the fraction of each "
+        "cell's volume excess removed; 0 = off");
     scene.fluid.initial_velocity = fluid.vector("initial_velocity", std::vector<Real>(dim, 0), dim, "initial velocity of the fluid (m/s)");
     for (auto& shape : fluid.objects("shapes", "regions filled with fluid; a particle is seeded where any shape contains it"))
       scene.fluid.shapes.push_back(read_shape(shape, dim));
@@ -152,8 +156,8 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
   {
     JsonReader solver = root.object("solver", "linear solver of the pressure system");
     auto& o = scene.solver;
-    o.method = solver.choice("method", o.method, {"auto", "pcg", "cholmod"},
-                             "auto: CHOLMOD in 2-D up to cholmod_max_unknowns unknowns, PCG otherwise (measured fastest); pcg; cholmod (direct)");
+    o.method = solver.choice("method", o.method, {"auto", "pcg", "cholmod", "ldlt"},
+                             "auto: CHOLMOD in 2-D up to cholmod_max_unknowns unknowns, PCG otherwise (measured fastest); pcg; cholmod (direct, SuiteSparse); ldlt (direct, Eigen)");
     o.preconditioner = solver.choice("preconditioner", o.preconditioner, {"ichol", "jacobi"}, "PCG preconditioner: incomplete Cholesky (threshold fill, AMD ordering) or Jacobi");
     o.tolerance = solver.number("tolerance", o.tolerance, 0, 1, "PCG relative residual tolerance", true);
     o.max_iterations = solver.integer("max_iterations", o.max_iterations, 1, 1000000, "PCG iteration cap; reaching it stops the run");

@@ -36,6 +36,7 @@ struct FluidSpec {
   std::vector<ShapeSpec> shapes;
   std::vector<Real> initial_velocity;
   std::string surface_quadrature = "particles";  // particles | centre
+  Real position_correction = 0;  // relaxation of the particle position correction; 0 = off
 };
 
 struct SceneSpec {

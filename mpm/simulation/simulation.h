@@ -70,6 +70,7 @@ class Simulation {
   void update_grid_velocities();
   void grid_to_particles(Real dt);
   void keep_particles_in_domain();
+  void correct_particle_positions();
 
   SceneSpec scene_;
   Grid<dim> grid_;

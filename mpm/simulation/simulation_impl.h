@@ -56,6 +56,7 @@ void Simulation<dim>::step(Real dt) {
   solve_pressure_system();
   update_grid_velocities();
   grid_to_particles(dt);
+  if (scene_.fluid.position_correction > 0) correct_particle_positions();
 }
 
 template <int dim>
@@ -180,6 +181,64 @@ void Simulation<dim>::keep_particles_in_domain() {
       }
   }
   last_.wall_clamps = clamps;
+}
+
+// Optional position correction (method.md §3 step 6): particles drift into clusters and
+// gaps because the projection makes the grid velocity divergence-free, not the particle
+// flow. One extra solve with the same operators finds the smallest (mass-weighted)
+// displacement field d of the corners with
+//   integral over cell i of div d = relaxation (phi_i - 1) dx^dim,  B d = 0,
+// phi_i the particles' volume fraction in cell i; cells next to empty space are only
+// expanded (phi > 1), never compressed, since they may be partly empty. Particles then
+// move by the N1 interpolation of d. The wall rows keep them off the walls.
+template <int dim>
+void Simulation<dim>::correct_particle_positions() {
+  auto scope = timer_.scope("position correction");
+  fluid_bins_ = sort_particles_by_cell(grid_, fluid_);
+  fluid_particles_to_grid(grid_, fluid_, fluid_bins_, corner_momentum_);
+  const FluidOperators<dim> ops = iqmpm::build_fluid_operators<dim>(grid_, fluid_, fluid_bins_, corner_momentum_,
+                                                                    fluid_density_, slip_, false);
+  const int nv = ops.velocity_dofs(), np = ops.pressure_unknowns();
+  const Real cell_volume = grid_.cell_volume();
+  std::vector<Real> target(np + ops.wall_faces.size(), 0);
+  for (int i = 0; i < np; ++i) {
+    const int cell = ops.cell_of_pressure[i];
+    Real volume = 0;
+    for (int p = fluid_bins_.begin(cell); p < fluid_bins_.end(cell); ++p) volume += fluid_.initial_volume[p];
+    Real excess = volume / cell_volume - 1;
+    if (!ops.interior[i]) excess = std::max(excess, Real(0));
+    // G^fT d = -integral of div d.
+    target[i] = -scene_.fluid.position_correction * excess * cell_volume;
+  }
+  Eigen::VectorXd inverse_mass(nv * dim);
+  for (int d = 0; d < nv; ++d)
+    for (int a = 0; a < dim; ++a) inverse_mass[d * dim + a] = 1 / ops.mass[d];
+  PressureSystem correction;
+  correction.reset(inverse_mass);
+  correction.add_block("p_f", np, ops.gradient_transpose);
+  if (!ops.wall_faces.empty()) correction.add_block("y", int(ops.wall_faces.size()), ops.wall_rows);
+  correction.assemble(1);
+  // d = 0 - M^-1 D^T q with A q = -target gives D d = target.
+  Eigen::VectorXd rhs = -Eigen::Map<const Eigen::VectorXd>(target.data(), Eigen::Index(target.size()));
+  Eigen::VectorXd q;
+  auto solver = make_linear_solver(scene_.solver, correction.unknowns(), dim);
+  const auto stats = solver->solve(correction.matrix(), rhs, q);
+  if (!stats.converged || !q.allFinite())
+    throw NumericalFailure(fmt::format("position correction solve did not converge (relative residual {:.3g})", stats.relative_residual));
+  const Eigen::VectorXd displacement = correction.corrected_velocity(Eigen::VectorXd::Zero(nv * dim), q);
+  std::vector<Vec<dim>> corner_displacement(grid_.corners().size(), Vec<dim>::Zero());
+  for (int d = 0; d < nv; ++d)
+    for (int a = 0; a < dim; ++a) corner_displacement[ops.corner_of_dof[d]][a] = displacement[d * dim + a];
+  const GridLayout<dim> corners = grid_.corners();
+  const int n = int(fluid_.size());
+#pragma omp parallel for schedule(static)
+  for (int p = 0; p < n; ++p) {
+    const auto stencil = linear_stencil<dim>(grid_.to_cells(fluid_.position[p]), grid_.dx);
+    Vec<dim> shift = Vec<dim>::Zero();
+    for_each_offset<dim, 2>([&](const IVec<dim>& offset) { shift += stencil.weight(offset) * corner_displacement[corners.index(stencil.base + offset)]; });
+    fluid_.position[p] += shift;
+  }
+  keep_particles_in_domain();
 }
 
 template <int dim>
