@@ -26,10 +26,18 @@ Real evaluate_probe(const Simulation<dim>& sim, const ProbeSpec& probe) {
     return std::isfinite(front) ? front + half_spacing : std::nan("");
   }
   if (probe.type == "water_height") {
+    // Top of the water column connected to the floor at the gauge: splashes and drops above
+    // an empty cell do not count.
     const Real half_width = probe.band < 0 ? grid.dx : probe.band;
-    Real top = -std::numeric_limits<Real>::infinity();
+    const int rows = grid.cells[up];
+    std::vector<Real> row_top(rows, -std::numeric_limits<Real>::infinity());
     for (const auto& x : fluid.position)
-      if (std::abs(x[0] - probe.position) <= half_width) top = std::max(top, x[up]);
+      if (std::abs(x[0] - probe.position) <= half_width) {
+        const int row = std::min(rows - 1, std::max(0, int(std::floor((x[up] - grid.origin[up]) / grid.dx))));
+        row_top[row] = std::max(row_top[row], x[up]);
+      }
+    Real top = -std::numeric_limits<Real>::infinity();
+    for (int row = 0; row < rows && std::isfinite(row_top[row]); ++row) top = row_top[row];
     return std::isfinite(top) ? top + half_spacing - grid.origin[up] : 0;
   }
   if (probe.type == "pressure") {

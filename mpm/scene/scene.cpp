@@ -60,7 +60,7 @@ ProbeSpec read_probe(JsonReader& r, int dim, const std::vector<Real>& domain_min
   }
   if (p.type == "water_height" || doc) {
     p.position = r.number("position", std::nullopt, -kInf, kInf, "water_height: first-axis coordinate of the gauge (m)");
-    p.band = r.number("half_width", -1, -1, kInf, "water_height: particles within this distance of the gauge count (m); -1 = one cell");
+    p.band = r.number("half_width", -1, -1, kInf, "water_height: particles within this distance of the gauge count (m); -1 = one cell. The height is the top of the column connected to the floor (splashes above an empty cell do not count)");
   }
   if (p.type == "pressure" || doc) p.point = r.vector("point", std::nullopt, dim, "pressure: sample point (m); the pressure of its dual cell");
   if (p.type == "wall_force" || doc) {
