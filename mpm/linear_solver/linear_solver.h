@@ -13,7 +13,7 @@ namespace iqmpm {
 struct LinearSolverOptions {
   std::string method = "auto";          // auto | pcg | cholmod | ldlt
   std::string preconditioner = "ichol";  // ichol | jacobi (pcg only)
-  Real tolerance = 1e-6;                // relative residual ||b - A x|| / ||b||
+  Real tolerance = 1e-8;                // relative residual ||b - A x|| / ||b||
   int max_iterations = 2000;
   int cholmod_max_unknowns = 100000;    // auto, 2-D: CHOLMOD up to this size, PCG above
   bool warm_start = true;

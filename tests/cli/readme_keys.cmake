@@ -1,0 +1,11 @@
+# The README's scene-key table must be the output of `iqmpm keys` (one source of truth).
+execute_process(COMMAND ${IQMPM} keys OUTPUT_VARIABLE generated RESULT_VARIABLE code)
+if(NOT code EQUAL 0)
+  message(FATAL_ERROR "iqmpm keys failed (${code})")
+endif()
+file(READ ${SOURCE}/README.md readme)
+string(REGEX MATCH "<!-- keys:begin[^\n]*\n(.*)<!-- keys:end -->" _ "${readme}")
+set(documented "${CMAKE_MATCH_1}")
+if(NOT documented STREQUAL generated)
+  message(FATAL_ERROR "README.md scene-key table is out of date: regenerate it with build/iqmpm keys")
+endif()
