@@ -45,24 +45,34 @@ struct GridMomentum {
   }
 };
 
-// Fluid P2G on the corners (N1): m_c = sum w m_p, (mv)_c = sum w m_p (v_p + C_p (x_c - x_p)).
+// APIC P2G with a kernel of `width` points per axis: m_i = sum w m_p,
+// (mv)_i = sum w m_p (v_p + C_p (x_i - x_p)).
+template <int dim, int width, class StencilOf, class PositionOf>
+void particles_to_grid(const Grid<dim>& grid, const GridLayout<dim>& layout, StencilOf stencil_of,
+                       PositionOf position_of, const Particles<dim>& particles, const ParticleBins<dim>& bins,
+                       GridMomentum<dim>& out) {
+  out.reset(layout.size());
+  for_each_particle_coloured(bins, [&](int p) {
+    const Vec<dim>& xp = particles.position[p];
+    const auto stencil = stencil_of(grid.to_cells(xp), grid.dx);
+    const Vec<dim> affine_velocity_base = particles.velocity[p] - particles.affine[p] * xp;
+    for_each_offset<dim, width>([&](const IVec<dim>& offset) {
+      const IVec<dim> point = stencil.base + offset;
+      const int k = layout.index(point);
+      const Real wm = stencil.weight(offset) * particles.mass[p];
+      out.mass[k] += wm;
+      out.momentum[k] += wm * (affine_velocity_base + particles.affine[p] * position_of(point));
+    });
+  });
+}
+
+// Fluid P2G on the corners (N1).
 template <int dim>
 void fluid_particles_to_grid(const Grid<dim>& grid, const Particles<dim>& particles,
                              const ParticleBins<dim>& bins, GridMomentum<dim>& out) {
-  const GridLayout<dim> corners = grid.corners();
-  out.reset(corners.size());
-  for_each_particle_coloured(bins, [&](int p) {
-    const Vec<dim>& xp = particles.position[p];
-    const auto stencil = linear_stencil<dim>(grid.to_cells(xp), grid.dx);
-    const Vec<dim> affine_velocity_base = particles.velocity[p] - particles.affine[p] * xp;
-    for_each_offset<dim, 2>([&](const IVec<dim>& offset) {
-      const IVec<dim> corner = stencil.base + offset;
-      const int k = corners.index(corner);
-      const Real wm = stencil.weight(offset) * particles.mass[p];
-      out.mass[k] += wm;
-      out.momentum[k] += wm * (affine_velocity_base + particles.affine[p] * grid.corner_position(corner));
-    });
-  });
+  particles_to_grid<dim, 2>(
+      grid, grid.corners(), [](const Vec<dim>& xi, Real dx) { return linear_stencil<dim>(xi, dx); },
+      [&](const IVec<dim>& c) { return grid.corner_position(c); }, particles, bins, out);
 }
 
 // Fluid G2P: v_p = sum w v_c, C_p = sum v_c grad w^T (gradient form, exact for affine
@@ -92,20 +102,9 @@ void fluid_grid_to_particles(const Grid<dim>& grid, const std::vector<Vec<dim>>&
 template <int dim>
 void solid_particles_to_grid(const Grid<dim>& grid, const Particles<dim>& particles,
                              const ParticleBins<dim>& bins, GridMomentum<dim>& out) {
-  const GridLayout<dim> nodes = grid.nodes();
-  out.reset(nodes.size());
-  for_each_particle_coloured(bins, [&](int p) {
-    const Vec<dim>& xp = particles.position[p];
-    const auto stencil = quadratic_stencil<dim>(grid.to_cells(xp), grid.dx);
-    const Vec<dim> affine_velocity_base = particles.velocity[p] - particles.affine[p] * xp;
-    for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
-      const IVec<dim> node = stencil.base + offset;
-      const int k = nodes.index(node);
-      const Real wm = stencil.weight(offset) * particles.mass[p];
-      out.mass[k] += wm;
-      out.momentum[k] += wm * (affine_velocity_base + particles.affine[p] * grid.dual_cell_centre(node));
-    });
-  });
+  particles_to_grid<dim, 3>(
+      grid, grid.nodes(), [](const Vec<dim>& xi, Real dx) { return quadratic_stencil<dim>(xi, dx); },
+      [&](const IVec<dim>& i) { return grid.dual_cell_centre(i); }, particles, bins, out);
 }
 
 // Solid G2P: v_p = sum w v_i, C_p = 4/dx^2 sum w v_i (x_i - x_p)^T (method.md §6), and the
