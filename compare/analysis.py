@@ -136,6 +136,9 @@ def load_reference(ref: Reference, data_dir: Path, t_like: np.ndarray | None = N
     if ref.max_y is not None:
         keep = y <= ref.max_y
         t, y = t[keep], y[keep]
+    if ref.max_t is not None:
+        keep = t <= ref.max_t + 1e-9
+        t, y = t[keep], y[keep]
     return Series(t, y, ref.label)
 
 

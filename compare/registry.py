@@ -38,6 +38,7 @@ class CsvReference:
     where: tuple[tuple[str, str], ...] = ()
     subtract_first: bool = False  # digitisation offset (the file header says so)
     max_y: float | None = None  # drop reference points beyond this (outside the set-up)
+    max_t: float | None = None  # drop reference points after this time (the error window)
     normalised: bool = False  # the CSV is in the metric's Normalisation space
 
 
@@ -128,18 +129,18 @@ DAM_NORM = Normalisation(DAM_T_SCALE, 1.0 / DAM_A, "T = t sqrt(2g/a) (-)", "Z = 
 _DAM_FRONT_REFS: tuple[Reference, ...] = (
     CsvReference("ko1996", "Koshizuka & Oka (1996), exp.",
                  "koshizuka_oka_1996_surge_front_pysph.csv",
-                 "T_t_sqrt_2g_over_L", "Z_x_over_L", max_y=4.0, normalised=True),
+                 "T_t_sqrt_2g_over_L", "Z_x_over_L", max_y=4.0, max_t=2.5, normalised=True),
     CsvReference("mm1952", "Martin & Moyce (1952), n^2=2 (Lethe)",
                  "martin_moyce_1952_n2_2_front_lethe.csv",
-                 "tau_t_sqrt_2g_over_L", "x_front_over_L", max_y=4.0, normalised=True),
+                 "tau_t_sqrt_2g_over_L", "x_front_over_L", max_y=4.0, max_t=2.5, normalised=True),
     CsvReference("mm1952_a1125", "Martin & Moyce (1952), a=1.125 in",
                  "martin_moyce_1952_surge_front_pysph.csv",
                  "T_t_sqrt_2g_over_a", "Z_x_over_a", where=(("case_a_inch", "1.125"),),
-                 max_y=4.0, normalised=True),
+                 max_y=4.0, max_t=2.5, normalised=True),
     CsvReference("mm1952_a225", "Martin & Moyce (1952), a=2.25 in",
                  "martin_moyce_1952_surge_front_pysph.csv",
                  "T_t_sqrt_2g_over_a", "Z_x_over_a", where=(("case_a_inch", "2.25"),),
-                 max_y=4.0, normalised=True),
+                 max_y=4.0, max_t=2.5, normalised=True),
 )
 
 _GATE_FILE = "antoci2007_elastic_gate_tip_displacement.csv"
@@ -355,6 +356,8 @@ def _ref_text(ref: Reference) -> str:
         extra.append("first value subtracted")
     if ref.max_y is not None:
         extra.append(f"points with y <= {ref.max_y:g}")
+    if ref.max_t is not None:
+        extra.append(f"points with t <= {ref.max_t:g}")
     tail = f" ({'; '.join(extra)})" if extra else ""
     return f"{ref.label}: `{ref.file}`{tail}"
 
