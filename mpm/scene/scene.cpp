@@ -62,7 +62,7 @@ ProbeSpec read_probe(JsonReader& r, int dim, const std::vector<Real>& domain_min
     p.position = r.number("position", std::nullopt, -kInf, kInf, "water_height: first-axis coordinate of the gauge (m)");
     p.band = r.number("half_width", -1, -1, kInf, "water_height: particles within this distance of the gauge count (m); -1 = one cell. The height is the top of the column connected to the floor (splashes above an empty cell do not count)");
   }
-  if (p.type == "pressure" || doc) p.point = r.vector("point", std::nullopt, dim, "pressure: sample point (m); the pressure of its dual cell");
+  if (p.type == "pressure" || doc) p.point = r.vector("point", std::nullopt, dim, "pressure: sample point (m); the mean pressure of the 2^dim dual cells nearest to it (filters the Q1-P0 checkerboard mode)");
   if (p.type == "wall_force" || doc) {
     std::vector<std::string> sides;
     for (int a = 0; a < dim; ++a) sides.insert(sides.end(), {kSideNames[a][0], kSideNames[a][1]});
