@@ -1,0 +1,359 @@
+// The implicit-Euler incremental potential of the solid (method.md §3 step 2), over the
+// velocities of the active quadratic nodes (N2, mass > 0) that are not clamped:
+//
+//   E(v) = sum_i m_i/2 |v_i - v_i^n|^2 + sum_p V0_p Psi(F_p(v)),
+//   F_p(v) = (I + dt sum_i v_i grad w_ip^T) F_p^n = F_p^n + dt sum_i v_i b_ip^T,
+//   b_ip = F_p^nT grad w_ip,
+//
+// with its gradient  g_i = m_i (v_i - v_i^n) + dt sum_p V0_p P(F_p) b_ip
+// and its Hessian    H = M + dt^2 sum_p V0_p (dF_p/dv)^T dP/dF (dF_p/dv),
+// dP/dF optionally projected to PSD per particle (psd_projection.h), so that H is SPD.
+// Gravity is already in v^n (P2G, §3 step 1).
+//
+// Unknowns: node r of the free (active, not clamped) nodes, numbered in the order of
+// Grid::nodes(), owns entries r*dim .. r*dim+dim-1. A clamped node (Dirichlet) keeps its
+// prescribed velocity: it enters F_p as a constant and is not an unknown; its kinetic
+// term is then constant and left out of E. The Hessian's sparsity pattern (the node pairs
+// that share a particle) is built once per step; every evaluation fills the same pattern.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+
+#include <cassert>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+#include "core/types.h"
+#include "grid/grid.h"
+#include "grid/kernels.h"
+#include "particles/particles.h"
+
+namespace iqmpm {
+
+// The solid's nodal state entering the Newton step, dense over Grid::nodes().
+template <int dim>
+struct SolidNodes {
+  std::vector<Real> mass;                  // m_i from solid P2G
+  std::vector<Vec<dim>> velocity;          // v_i^n = momentum / mass, gravity included
+  std::vector<std::uint8_t> clamped;       // 1 = Dirichlet node; empty: no node clamped
+  std::vector<Vec<dim>> clamped_velocity;  // prescribed velocity; empty: zero
+};
+
+template <int dim, class Material>
+class SolidIncrementalPotential {
+ public:
+  using Vector = Eigen::Matrix<Real, Eigen::Dynamic, 1>;
+  using SparseMatrix = Eigen::SparseMatrix<Real, Eigen::RowMajor, int>;
+
+  // Every particle uses `material`.
+  SolidIncrementalPotential(const Grid<dim>& grid, const Particles<dim>& particles,
+                            const Material& material, const SolidNodes<dim>& nodes, Real dt)
+      : SolidIncrementalPotential(grid, particles, std::vector<Material>{material}, {}, nodes,
+                                  dt) {}
+
+  // Particle p uses materials[material_of_particle[p]] (e.g. Particles::body when several
+  // solids of one model differ in parameters); an empty index vector means materials[0].
+  SolidIncrementalPotential(const Grid<dim>& grid, const Particles<dim>& particles,
+                            std::vector<Material> materials, std::vector<int> material_of_particle,
+                            const SolidNodes<dim>& nodes, Real dt)
+      : layout_(grid.nodes()),
+        dt_(dt),
+        dx_(grid.dx),
+        materials_(std::move(materials)),
+        material_of_particle_(std::move(material_of_particle)) {
+    assert(!materials_.empty());
+    assert(int(nodes.mass.size()) == layout_.size() && int(nodes.velocity.size()) == layout_.size());
+    assert(particles.deformation_gradient.size() == particles.size());
+    assert(material_of_particle_.empty() || material_of_particle_.size() == particles.size());
+    number_free_nodes(nodes);
+    gather_particles(grid, particles, nodes);
+    build_hessian_pattern();
+  }
+
+  int unknowns() const { return dim * int(free_node_.size()); }
+  int particle_count() const { return int(volume_.size()); }
+  const GridLayout<dim>& node_layout() const { return layout_; }
+  // Dense node index of free node r, and the free number of a dense node (-1: not free).
+  int dense_node(int r) const { return free_node_[r]; }
+  int free_number(int dense) const { return free_number_[dense]; }
+
+  // v^n on the free nodes: the usual starting guess.
+  Vector initial_velocity() const { return velocity_n_; }
+  // m_i repeated per component: the kinetic part of the Hessian.
+  const Vector& mass_diagonal() const { return mass_; }
+
+  // A gradient magnitude for absolute tolerances: the momentum of all nodes moving at
+  // max |v^n| + dx/dt (dx/dt keeps it positive for a body at rest).
+  Real gradient_scale() const {
+    Real speed = 0;
+    for (int r = 0; r < int(free_node_.size()); ++r)
+      speed = std::max(speed, velocity_n_.template segment<dim>(dim * r).norm());
+    return mass_.norm() * (speed + dx_ / dt_);
+  }
+
+  Mat<dim> deformation_gradient(int p, const Vector& v) const {
+    Mat<dim> F = F_constant_[p];
+    for (int e = 0; e < kStencil; ++e) {
+      const int r = stencil_free_[p * kStencil + e];
+      if (r >= 0) F.noalias() += dt_ * v.template segment<dim>(dim * r) * b_[p * kStencil + e].transpose();
+    }
+    return F;
+  }
+
+  Real kinetic_energy(const Vector& v) const {
+    return Real(0.5) * (mass_.array() * (v - velocity_n_).array().square()).sum();
+  }
+
+  // sum_p V0_p Psi(F_p(v)); +infinity when some F_p is non-finite or outside the
+  // material's domain (neo-Hookean J <= 0).
+  Real elastic_energy(const Vector& v) const {
+    const int n = particle_count();
+    Real sum = 0;
+#pragma omp parallel for schedule(static) reduction(+ : sum)
+    for (int p = 0; p < n; ++p) {
+      const Mat<dim> F = deformation_gradient(p, v);
+      sum += F.allFinite() ? volume_[p] * material(p).energy_density(F)
+                           : std::numeric_limits<Real>::infinity();
+    }
+    return std::isfinite(sum) ? sum : std::numeric_limits<Real>::infinity();
+  }
+
+  Real energy(const Vector& v) const {
+    const Real value = kinetic_energy(v) + elastic_energy(v);
+    return std::isfinite(value) ? value : std::numeric_limits<Real>::infinity();
+  }
+
+  // Requires energy(v) finite.
+  Vector gradient(const Vector& v) const {
+    const int n = particle_count();
+    std::vector<Mat<dim>> stress(n);  // dt V0_p P(F_p)
+#pragma omp parallel for schedule(static)
+    for (int p = 0; p < n; ++p)
+      stress[p] = dt_ * volume_[p] * material(p).first_piola(deformation_gradient(p, v));
+    Vector g = mass_.cwiseProduct(v - velocity_n_);
+    for (int p = 0; p < n; ++p)
+      for (int e = 0; e < kStencil; ++e) {
+        const int r = stencil_free_[p * kStencil + e];
+        if (r >= 0) g.template segment<dim>(dim * r) += stress[p] * b_[p * kStencil + e];
+      }
+    return g;
+  }
+
+  // Requires energy(v) finite. Symmetric to the last bit; SPD when project_to_psd.
+  SparseMatrix hessian(const Vector& v, bool project_to_psd) const {
+    const int n = particle_count();
+    std::vector<TensorMat<dim>> stiffness(n);  // dt^2 V0_p dP/dF(F_p)
+#pragma omp parallel for schedule(static)
+    for (int p = 0; p < n; ++p)
+      stiffness[p] = dt_ * dt_ * volume_[p] *
+                     material(p).first_piola_derivative(deformation_gradient(p, v), project_to_psd);
+
+    SparseMatrix H(unknowns(), unknowns());
+    H.resizeNonZeros(int(pattern_columns_.size()));
+    std::copy(pattern_row_start_.begin(), pattern_row_start_.end(), H.outerIndexPtr());
+    std::copy(pattern_columns_.begin(), pattern_columns_.end(), H.innerIndexPtr());
+    Real* values = H.valuePtr();
+    std::fill(values, values + pattern_columns_.size(), Real(0));
+
+    for (int r = 0; r < int(free_node_.size()); ++r)
+      for (int a = 0; a < dim; ++a) values[entry(r, slot(r, kCentreCode), a, a)] += mass_[dim * r + a];
+
+    // Block (i, j) of particle p: H_(i a),(j b) = sum_cd A_(c dim + a),(d dim + b) b_i[c] b_j[d],
+    // A = dt^2 V0 dP/dF, since dF/dv_(i a) = dt e_a b_i^T has vec entries b_i[c] at c dim + a.
+    using RowBlock = Eigen::Matrix<Real, dim, dim * dim>;
+    for (int p = 0; p < n; ++p) {
+      const TensorMat<dim>& A = stiffness[p];
+      for (int ei = 0; ei < kStencil; ++ei) {
+        const int ri = stencil_free_[p * kStencil + ei];
+        if (ri < 0) continue;
+        const Vec<dim>& bi = b_[p * kStencil + ei];
+        RowBlock X = RowBlock::Zero();  // (dF/dv_i)^T A
+        for (int c = 0; c < dim; ++c) X.noalias() += bi[c] * A.template middleRows<dim>(c * dim);
+        for (int ej = ei; ej < kStencil; ++ej) {
+          const int rj = stencil_free_[p * kStencil + ej];
+          if (rj < 0) continue;
+          const Vec<dim>& bj = b_[p * kStencil + ej];
+          Mat<dim> block = Mat<dim>::Zero();
+          for (int d = 0; d < dim; ++d) block.noalias() += bj[d] * X.template middleCols<dim>(d * dim);
+          if (ej == ei) {
+            const Mat<dim> symmetric = Real(0.5) * (block + block.transpose());
+            add_block(values, ri, slot(ri, pair_code_[ei][ej]), symmetric);
+          } else {
+            add_block(values, ri, slot(ri, pair_code_[ei][ej]), block);
+            add_block(values, rj, slot(rj, pair_code_[ej][ei]), block.transpose());
+          }
+        }
+      }
+    }
+    return H;
+  }
+
+  // Writes the nodal velocities, dense over Grid::nodes(): v on free nodes, the prescribed
+  // velocity on clamped active nodes, v^n (unchanged) on inactive nodes.
+  void scatter(const Vector& v, std::vector<Vec<dim>>& node_velocity) const {
+    node_velocity = dense_velocity_;
+    for (int r = 0; r < int(free_node_.size()); ++r)
+      node_velocity[free_node_[r]] = v.template segment<dim>(dim * r);
+  }
+
+ private:
+  static constexpr int kStencil = dim == 2 ? 9 : 27;    // 3^dim nodes of N2
+  static constexpr int kNeighbours = dim == 2 ? 25 : 125;  // 5^dim node offsets within reach
+  static constexpr int kCentreCode = dim == 2 ? 12 : 62;   // offset 0 in the 5^dim code
+
+  const Material& material(int p) const {
+    return material_of_particle_.empty() ? materials_[0] : materials_[material_of_particle_[p]];
+  }
+
+  void number_free_nodes(const SolidNodes<dim>& nodes) {
+    const int size = layout_.size();
+    const bool any_clamped = !nodes.clamped.empty();
+    assert(!any_clamped || int(nodes.clamped.size()) == size);
+    assert(nodes.clamped_velocity.empty() || int(nodes.clamped_velocity.size()) == size);
+    dense_velocity_ = nodes.velocity;
+    free_number_.assign(size, -1);
+    clamped_value_.assign(size, Vec<dim>::Zero());
+    for (int k = 0; k < size; ++k) {
+      if (!(nodes.mass[k] > 0)) continue;
+      if (any_clamped && nodes.clamped[k]) {
+        if (!nodes.clamped_velocity.empty()) clamped_value_[k] = nodes.clamped_velocity[k];
+        dense_velocity_[k] = clamped_value_[k];
+        continue;
+      }
+      free_number_[k] = int(free_node_.size());
+      free_node_.push_back(k);
+    }
+    const int count = int(free_node_.size());
+    mass_.resize(dim * count);
+    velocity_n_.resize(dim * count);
+    for (int r = 0; r < count; ++r) {
+      mass_.template segment<dim>(dim * r).setConstant(nodes.mass[free_node_[r]]);
+      velocity_n_.template segment<dim>(dim * r) = nodes.velocity[free_node_[r]];
+    }
+  }
+
+  // Per particle: V0, b_ip for its 3^dim nodes, their free numbers, and the constant part
+  // of F_p(v) (F^n plus the clamped nodes' prescribed velocities).
+  void gather_particles(const Grid<dim>& grid, const Particles<dim>& particles, const SolidNodes<dim>& nodes) {
+    const int n = int(particles.size());
+    volume_.resize(n);
+    F_constant_.resize(n);
+    b_.resize(std::size_t(n) * kStencil);
+    stencil_free_.resize(std::size_t(n) * kStencil);
+    for (int p = 0; p < n; ++p) {
+      const Mat<dim>& Fn = particles.deformation_gradient[p];
+      const auto stencil = quadratic_stencil<dim>(grid.to_cells(particles.position[p]), grid.dx);
+      volume_[p] = particles.initial_volume[p];
+      F_constant_[p] = Fn;
+      int e = 0;
+      for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
+        const IVec<dim> node = stencil.base + offset;
+        assert(layout_.contains(node) && "solid particle outside the padded node layout");
+        const int k = layout_.index(node);
+        const Vec<dim> b = Fn.transpose() * stencil.gradient(offset);
+        b_[p * kStencil + e] = b;
+        stencil_free_[p * kStencil + e] = free_number_[k];
+        // An inactive node (zero mass) of a particle's stencil has zero weight and gradient.
+        if (free_number_[k] < 0 && nodes.mass[k] > 0) F_constant_[p].noalias() += dt_ * clamped_value_[k] * b.transpose();
+        ++e;
+      });
+    }
+  }
+
+  // Node pairs sharing a particle -> CSR pattern of the scalar Hessian. Row (r, a) lists,
+  // for every neighbour slot s of node r (in increasing free number), columns (c_s, 0..dim-1).
+  void build_hessian_pattern() {
+    // 5^dim code of offset(j) - offset(i) + 2 for two stencil entries.
+    IVec<dim> offsets[kStencil];
+    {
+      int e = 0;
+      for_each_offset<dim, 3>([&](const IVec<dim>& o) { offsets[e++] = o; });
+    }
+    for (int ei = 0; ei < kStencil; ++ei)
+      for (int ej = 0; ej < kStencil; ++ej) {
+        int code = 0;
+        for (int a = 0; a < dim; ++a) code = code * 5 + (offsets[ej][a] - offsets[ei][a] + 2);
+        pair_code_[ei][ej] = code;
+      }
+
+    const int count = int(free_node_.size());
+    slot_.assign(std::size_t(count) * kNeighbours, -1);
+    for (int p = 0; p < particle_count(); ++p)
+      for (int ei = 0; ei < kStencil; ++ei) {
+        const int ri = stencil_free_[p * kStencil + ei];
+        if (ri < 0) continue;
+        for (int ej = 0; ej < kStencil; ++ej)
+          if (stencil_free_[p * kStencil + ej] >= 0) slot_[std::size_t(ri) * kNeighbours + pair_code_[ei][ej]] = 0;
+      }
+    // Every free node has mass, hence a particle, hence its own diagonal block.
+    neighbour_count_.assign(count, 0);
+    pattern_row_start_.assign(dim * count + 1, 0);
+    pattern_columns_.clear();
+    IVec<dim> delta_of_code[kNeighbours];
+    {
+      int code = 0;
+      for_each_offset<dim, 5>([&](const IVec<dim>& o) { delta_of_code[code++] = o - IVec<dim>::Constant(2); });
+    }
+    for (int r = 0; r < count; ++r) {
+      assert(slot_[std::size_t(r) * kNeighbours + kCentreCode] == 0);
+      const IVec<dim> node = layout_.multi_index(free_node_[r]);
+      std::vector<int> columns;
+      // Codes increase with the dense index of the neighbour (first axis outermost), and
+      // free numbers follow the dense order, so the columns come out sorted.
+      for (int code = 0; code < kNeighbours; ++code) {
+        int& s = slot_[std::size_t(r) * kNeighbours + code];
+        if (s < 0) continue;
+        s = neighbour_count_[r]++;
+        columns.push_back(free_number_[layout_.index(node + delta_of_code[code])]);
+      }
+      for (int a = 0; a < dim; ++a) {
+        for (int c : columns)
+          for (int b = 0; b < dim; ++b) pattern_columns_.push_back(dim * c + b);
+        pattern_row_start_[dim * r + a + 1] = int(pattern_columns_.size());
+      }
+    }
+  }
+
+  int slot(int r, int code) const {
+    const int s = slot_[std::size_t(r) * kNeighbours + code];
+    assert(s >= 0);
+    return s;
+  }
+  // Value index of H_(r a),(c_s b).
+  int entry(int r, int s, int a, int b) const {
+    return pattern_row_start_[dim * r + a] + s * dim + b;
+  }
+  void add_block(Real* values, int r, int s, const Mat<dim>& block) const {
+    for (int a = 0; a < dim; ++a)
+      for (int b = 0; b < dim; ++b) values[entry(r, s, a, b)] += block(a, b);
+  }
+
+  GridLayout<dim> layout_;
+  Real dt_;
+  Real dx_;
+  std::vector<Material> materials_;
+  std::vector<int> material_of_particle_;
+
+  std::vector<int> free_node_;    // free number -> dense node
+  std::vector<int> free_number_;  // dense node -> free number or -1
+  std::vector<Vec<dim>> clamped_value_;   // dense; prescribed velocity of clamped nodes
+  std::vector<Vec<dim>> dense_velocity_;  // dense; v^n, clamped nodes set to their value
+  Vector mass_;        // per unknown
+  Vector velocity_n_;  // per unknown
+
+  std::vector<Real> volume_;
+  std::vector<Mat<dim>> F_constant_;
+  std::vector<Vec<dim>> b_;          // p * kStencil + e
+  std::vector<int> stencil_free_;    // p * kStencil + e -> free number or -1
+
+  int pair_code_[kStencil][kStencil];
+  std::vector<int> slot_;             // r * kNeighbours + code -> neighbour slot or -1
+  std::vector<int> neighbour_count_;
+  std::vector<int> pattern_row_start_;
+  std::vector<int> pattern_columns_;
+};
+
+}  // namespace iqmpm

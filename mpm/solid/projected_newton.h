@@ -1,0 +1,178 @@
+// Projected Newton minimiser of method.md §3 step 2, independent of MPM: it only needs a
+// Potential with
+//   Vector initial_velocity(), Real energy(x) (+inf outside the domain), Vector gradient(x),
+//   SparseMatrix hessian(x, bool project_to_psd), Real gradient_scale().
+// Direction: H d = -g by CG with a diagonal preconditioner, to the relative tolerance
+// eta_k = min(cg_max_tolerance, max(cg_min_tolerance, cg_forcing ||g_k|| / ||g_0||)), which
+// keeps Newton's local quadratic rate (inexact Newton with eta_k = O(||g_k||)).
+// Step: backtracking (Armijo) line search on the energy; a trial with a non-finite energy
+// (e.g. an inverted neo-Hookean particle) is rejected like one that does not decrease.
+// Stop: ||g_k|| <= max(relative_tolerance ||g_0||, absolute_tolerance gradient_scale()).
+// The result reports every gradient norm and why the iteration stopped; a step that did not
+// converge is returned as such (the caller decides whether that is a NumericalFailure).
+#pragma once
+
+#include <Eigen/IterativeLinearSolvers>
+#include <Eigen/SparseCore>
+
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "core/types.h"
+
+namespace iqmpm {
+
+struct ProjectedNewtonOptions {
+  Real relative_tolerance = 1e-5;   // on ||g_k|| / ||g_0||
+  Real absolute_tolerance = 1e-12;  // on ||g_k|| / gradient_scale() (a body at rest, roundoff)
+  int max_iterations = 50;          // Newton iterations
+  bool project_hessian = true;      // per-particle PSD projection of dP/dF (SPD system)
+  Real cg_forcing = 1;              // eta_k = cg_forcing ||g_k|| / ||g_0||, clamped to:
+  Real cg_max_tolerance = 0.5;
+  Real cg_min_tolerance = 1e-12;
+  int cg_max_iterations = 1000;     // per Newton iteration; an unfinished CG still descends
+  Real armijo = 1e-4;               // sufficient decrease E(x + a d) <= E(x) + armijo a g.d
+  Real backtracking_factor = 0.5;
+  int max_backtracks = 40;
+  // Energy differences below this times |E| are roundoff: accepted as "no increase".
+  Real energy_roundoff = 1e-14;
+};
+
+enum class NewtonStatus {
+  converged,
+  max_iterations,      // iteration cap reached, gradient still above tolerance
+  line_search_failed,  // no step along d decreased E (at the roundoff floor, or a bad direction)
+  non_finite,          // the start is outside the energy's domain, or CG returned NaN
+};
+
+inline const char* to_string(NewtonStatus status) {
+  switch (status) {
+    case NewtonStatus::converged: return "converged";
+    case NewtonStatus::max_iterations: return "max_iterations";
+    case NewtonStatus::line_search_failed: return "line_search_failed";
+    case NewtonStatus::non_finite: return "non_finite";
+  }
+  return "unknown";
+}
+
+struct NewtonResult {
+  NewtonStatus status = NewtonStatus::non_finite;
+  bool converged = false;
+  int iterations = 0;              // accepted Newton steps
+  int cg_iterations = 0;           // total over all Newton iterations
+  int cg_unfinished = 0;           // CG solves that hit cg_max_iterations
+  int backtracks = 0;              // total step halvings
+  int gradient_fallbacks = 0;      // directions replaced by -g (not a descent direction)
+  bool started_from_zero = false;  // v^n was outside the energy's domain, started from v = 0
+  std::vector<Real> gradient_norms;  // ||g_0||, ||g_1||, ...
+  std::vector<Real> energies;        // E_0, E_1, ...
+  Real tolerance = 0;                // the gradient norm that counted as converged
+
+  std::string summary() const {
+    std::ostringstream out;
+    out << "Newton " << to_string(status) << " after " << iterations << " iterations (" << cg_iterations
+        << " CG, " << backtracks << " backtracks); |g| =";
+    for (Real g : gradient_norms) out << ' ' << g;
+    out << "; tolerance " << tolerance;
+    return out.str();
+  }
+};
+
+template <class Potential>
+NewtonResult minimize_projected_newton(const Potential& potential, Eigen::Matrix<Real, Eigen::Dynamic, 1>& x,
+                                       const ProjectedNewtonOptions& options = {}) {
+  using Vector = Eigen::Matrix<Real, Eigen::Dynamic, 1>;
+  using SparseMatrix = typename Potential::SparseMatrix;
+  NewtonResult result;
+
+  Real energy = potential.energy(x);
+  if (!std::isfinite(energy)) {
+    x.setZero();
+    energy = potential.energy(x);
+    result.started_from_zero = true;
+    if (!std::isfinite(energy)) {
+      result.status = NewtonStatus::non_finite;
+      return result;
+    }
+  }
+  Vector g = potential.gradient(x);
+  Real g_norm = g.norm();
+  const Real g0 = g_norm;
+  result.gradient_norms.push_back(g_norm);
+  result.energies.push_back(energy);
+  result.tolerance = std::max(options.relative_tolerance * g0, options.absolute_tolerance * potential.gradient_scale());
+  if (!std::isfinite(g_norm)) {
+    result.status = NewtonStatus::non_finite;
+    return result;
+  }
+  if (g_norm <= result.tolerance) {
+    result.status = NewtonStatus::converged;
+    result.converged = true;
+    return result;
+  }
+
+  Eigen::ConjugateGradient<SparseMatrix, Eigen::Lower | Eigen::Upper, Eigen::DiagonalPreconditioner<Real>> cg;
+  result.status = NewtonStatus::max_iterations;
+  for (int k = 0; k < options.max_iterations; ++k) {
+    const SparseMatrix H = potential.hessian(x, options.project_hessian);
+    cg.compute(H);
+    cg.setMaxIterations(options.cg_max_iterations);
+    cg.setTolerance(std::min(options.cg_max_tolerance,
+                             std::max(options.cg_min_tolerance, options.cg_forcing * g_norm / g0)));
+    Vector d = cg.solve(-g);
+    result.cg_iterations += int(cg.iterations());
+    if (cg.info() != Eigen::Success) ++result.cg_unfinished;
+    if (!d.allFinite()) {
+      result.status = NewtonStatus::non_finite;
+      break;
+    }
+    Real slope = g.dot(d);
+    if (!(slope < 0)) {  // only possible with an unprojected, indefinite Hessian
+      d = -g;
+      slope = -g_norm * g_norm;
+      ++result.gradient_fallbacks;
+    }
+
+    Real alpha = 1;
+    bool accepted = false;
+    Vector trial;
+    Real trial_energy = 0;
+    for (int b = 0; b <= options.max_backtracks; ++b) {
+      trial = x + alpha * d;
+      trial_energy = potential.energy(trial);
+      if (std::isfinite(trial_energy) &&
+          trial_energy <= energy + options.armijo * alpha * slope + options.energy_roundoff * std::abs(energy)) {
+        accepted = true;
+        break;
+      }
+      alpha *= options.backtracking_factor;
+      ++result.backtracks;
+    }
+    if (!accepted) {
+      result.status = NewtonStatus::line_search_failed;
+      break;
+    }
+    x.swap(trial);
+    energy = trial_energy;
+    g = potential.gradient(x);
+    g_norm = g.norm();
+    ++result.iterations;
+    result.gradient_norms.push_back(g_norm);
+    result.energies.push_back(energy);
+    if (!std::isfinite(g_norm)) {
+      result.status = NewtonStatus::non_finite;
+      break;
+    }
+    if (g_norm <= result.tolerance) {
+      result.status = NewtonStatus::converged;
+      result.converged = true;
+      break;
+    }
+  }
+  return result;
+}
+
+}  // namespace iqmpm

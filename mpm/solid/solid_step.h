@@ -1,0 +1,34 @@
+// The implicit solid step of method.md §3 step 2: v_s^n -> v_s* by projected Newton on the
+// incremental potential (incremental_potential.h, projected_newton.h).
+//
+// In the time step (the caller wires):
+//   1. solid P2G (transfer/apic.h: solid_particles_to_grid) -> SolidNodes::mass, and
+//      SolidNodes::velocity = momentum / mass (+ dt gravity) on nodes with mass > 0;
+//      clamped / clamped_velocity for Dirichlet nodes (e.g. the top of the gate);
+//   2. solid_step(...) -> dense node velocities v*, and the result (check result.converged);
+//   3. after the coupled pressure solve, G2P (solid_grid_to_particles) with the final
+//      velocities and F_p^{n+1} = (I + dt grad v(x_p)) F_p^n, the same F_p(v) as the energy.
+// The particles' positions and F^n must not change between steps 1 and 2.
+#pragma once
+
+#include <vector>
+
+#include "solid/incremental_potential.h"
+#include "solid/projected_newton.h"
+
+namespace iqmpm {
+
+// Minimises the incremental potential starting from v^n and writes v* dense over
+// Grid::nodes() (clamped nodes: their prescribed velocity; inactive nodes: v^n unchanged).
+template <int dim, class Material>
+NewtonResult solid_step(const Grid<dim>& grid, const Particles<dim>& particles, const Material& material,
+                        const SolidNodes<dim>& nodes, Real dt, const ProjectedNewtonOptions& options,
+                        std::vector<Vec<dim>>& node_velocity) {
+  const SolidIncrementalPotential<dim, Material> potential(grid, particles, material, nodes, dt);
+  auto v = potential.initial_velocity();
+  const NewtonResult result = minimize_projected_newton(potential, v, options);
+  potential.scatter(v, node_velocity);
+  return result;
+}
+
+}  // namespace iqmpm

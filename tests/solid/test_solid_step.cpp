@@ -1,0 +1,423 @@
+// Tests of the implicit solid step (method.md §3 step 2): the incremental potential's
+// derivatives by finite differences, the projected Hessian, invariance under translation,
+// Newton's convergence rate, Dirichlet nodes and a clamped block under gravity.
+// One suite runs over both materials in 2-D and 3-D, one over the dimensions only.
+#include <Eigen/Dense>
+#include <Eigen/Eigenvalues>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "../core/test_helpers.h"
+#include "materials/fixed_corotated.h"
+#include "materials/neo_hookean.h"
+#include "particles/particles.h"
+#include "solid/solid_step.h"
+#include "transfer/apic.h"
+
+namespace iqmpm {
+namespace {
+
+using Vector = Eigen::Matrix<Real, Eigen::Dynamic, 1>;
+using DenseMatrix = Eigen::Matrix<Real, Eigen::Dynamic, Eigen::Dynamic>;
+
+constexpr Real kDensity = 1000;
+constexpr Real kDx = 0.1;
+
+template <class Material>
+struct DimOf;
+template <int d>
+struct DimOf<FixedCorotated<d>> {
+  static constexpr int value = d;
+};
+template <int d>
+struct DimOf<NeoHookean<d>> {
+  static constexpr int value = d;
+};
+
+template <class Material>
+Material test_material() {
+  return Material::from_young_poisson(/*E=*/1e5, /*nu=*/0.3);
+}
+
+// A block of solid particles in the unit box (dx = 0.1), cells [first, first + cells)^dim,
+// 2^dim particles per cell on a slightly jittered lattice, every F_p^n = F(p).
+template <int dim>
+struct Block {
+  Grid<dim> grid;
+  Particles<dim> particles;
+  SolidNodes<dim> nodes;
+};
+
+template <int dim, class DeformationOf>
+Block<dim> make_block(int first, int cells, std::mt19937& rng, DeformationOf deformation_of,
+                      const Vec<dim>& particle_velocity = Vec<dim>::Zero()) {
+  Block<dim> block;
+  block.grid = Grid<dim>(Vec<dim>::Zero(), Vec<dim>::Ones(), kDx);
+  const Real volume = std::pow(kDx / 2, dim);
+  const IVec<dim> sub_cells = IVec<dim>::Constant(2 * cells);
+  const GridLayout<dim> lattice(IVec<dim>::Zero(), sub_cells);
+  for (int k = 0; k < lattice.size(); ++k) {
+    const Vec<dim> cell = lattice.multi_index(k).template cast<Real>();
+    const Vec<dim> x = kDx * (Vec<dim>::Constant(first) + (cell + Vec<dim>::Constant(0.5)) / 2 +
+                              testing::random_vector<dim>(rng, -0.1, 0.1));
+    block.particles.add(x, particle_velocity, kDensity * volume, volume);
+    block.particles.deformation_gradient.push_back(deformation_of(rng));
+  }
+  const ParticleBins<dim> bins = sort_particles_by_cell(block.grid, block.particles);
+  GridMomentum<dim> momentum;
+  solid_particles_to_grid(block.grid, block.particles, bins, momentum);
+  block.nodes.mass = momentum.mass;
+  block.nodes.velocity.assign(momentum.mass.size(), Vec<dim>::Zero());
+  for (std::size_t i = 0; i < momentum.mass.size(); ++i)
+    if (momentum.mass[i] > 0) block.nodes.velocity[i] = momentum.momentum[i] / momentum.mass[i];
+  return block;
+}
+
+template <int dim>
+Mat<dim> random_deformation(std::mt19937& rng) {
+  for (;;) {
+    const Mat<dim> F = Mat<dim>::Identity() + testing::random_matrix<dim>(rng, -0.25, 0.25);
+    if (F.determinant() > 0.3) return F;
+  }
+}
+
+template <int dim>
+Mat<dim> random_rotation(std::mt19937& rng) {
+  const Eigen::HouseholderQR<Mat<dim>> qr(testing::random_matrix<dim>(rng, -1, 1));
+  Mat<dim> Q = qr.householderQ();
+  if (Q.determinant() < 0) Q.col(0) *= -1;
+  return Q;
+}
+
+// Clamps the active nodes whose first index is <= last_index, at `velocity`.
+template <int dim>
+int clamp_nodes_up_to(Block<dim>& block, int last_index, const Vec<dim>& velocity) {
+  const GridLayout<dim> layout = block.grid.nodes();
+  block.nodes.clamped.assign(layout.size(), 0);
+  block.nodes.clamped_velocity.assign(layout.size(), Vec<dim>::Zero());
+  int count = 0;
+  for (int k = 0; k < layout.size(); ++k)
+    if (block.nodes.mass[k] > 0 && layout.multi_index(k)[0] <= last_index) {
+      block.nodes.clamped[k] = 1;
+      block.nodes.clamped_velocity[k] = velocity;
+      ++count;
+    }
+  return count;
+}
+
+template <int dim>
+int active_nodes(const Block<dim>& block) {
+  int count = 0;
+  for (Real m : block.nodes.mass) count += m > 0;
+  return count;
+}
+
+Vector random_vector(std::mt19937& rng, int size, Real lo, Real hi) {
+  std::uniform_real_distribution<Real> u(lo, hi);
+  Vector v(size);
+  for (int k = 0; k < size; ++k) v[k] = u(rng);
+  return v;
+}
+
+// ---------------------------------------------------------------------------------------
+template <class Material>
+class SolidPotentialTest : public ::testing::Test {};
+
+using Materials = ::testing::Types<FixedCorotated<2>, FixedCorotated<3>, NeoHookean<2>, NeoHookean<3>>;
+struct MaterialNames {
+  template <class Material>
+  static std::string GetName(int) {
+    return std::string(std::is_same_v<Material, FixedCorotated<DimOf<Material>::value>> ? "FixedCorotated"
+                                                                                        : "NeoHookean") +
+           std::to_string(DimOf<Material>::value);
+  }
+};
+TYPED_TEST_SUITE(SolidPotentialTest, Materials, MaterialNames);
+
+// (a) g = dE/dv against central differences of E, and H = dg/dv (unprojected) against
+// central differences of g, at a random v on a block with random F^n, random v^n and a
+// clamped side with a non-zero prescribed velocity (the constant part of F_p(v)).
+// Errors are measured against the elastic parts of g and H (the kinetic parts are exact),
+// so a wrong elastic term cannot hide behind the mass matrix.
+TYPED_TEST(SolidPotentialTest, DerivativesMatchFiniteDifferences) {
+  constexpr int dim = DimOf<TypeParam>::value;
+  std::mt19937 rng(20240601 + dim);
+  Block<dim> block = make_block<dim>(3, 3, rng, random_deformation<dim>);
+  for (Vec<dim>& v : block.nodes.velocity) v = testing::random_vector<dim>(rng, -1, 1);
+  clamp_nodes_up_to<dim>(block, 2, testing::random_vector<dim>(rng, -1, 1));
+  const Real dt = 1e-2;
+  const SolidIncrementalPotential<dim, TypeParam> potential(block.grid, block.particles, test_material<TypeParam>(),
+                                                            block.nodes, dt);
+  const int n = potential.unknowns();
+  const Vector v = random_vector(rng, n, -1, 1);
+  ASSERT_TRUE(std::isfinite(potential.energy(v)));
+
+  const Real h = 1e-6;
+  const Vector g = potential.gradient(v);
+  Vector g_fd(n);
+  DenseMatrix H_fd(n, n);
+  for (int k = 0; k < n; ++k) {
+    Vector plus = v, minus = v;
+    plus[k] += h;
+    minus[k] -= h;
+    g_fd[k] = (potential.energy(plus) - potential.energy(minus)) / (2 * h);
+    H_fd.col(k) = (potential.gradient(plus) - potential.gradient(minus)) / (2 * h);
+  }
+  const Vector kinetic_gradient = potential.mass_diagonal().cwiseProduct(v - potential.initial_velocity());
+  const Vector elastic_gradient = g - kinetic_gradient;
+  const Real gradient_error = (g_fd - g).norm() / elastic_gradient.norm();
+  EXPECT_LT(gradient_error, 1e-6) << "relative error |g_fd - g| / |g_elastic| must be < 1e-6 (n = " << n << ")";
+
+  std::cout << "[          ] n = " << n << ", gradient error " << gradient_error;
+  const DenseMatrix H = DenseMatrix(potential.hessian(v, /*project_to_psd=*/false));
+  const DenseMatrix mass = potential.mass_diagonal().asDiagonal();
+  const Real hessian_error = (H_fd - H).norm() / (H - mass).norm();
+  std::cout << ", Hessian error " << hessian_error << '\n';
+  EXPECT_LT(hessian_error, 1e-6) << "relative error |H_fd - H|_F / |H_elastic|_F must be < 1e-6 (n = " << n << ")";
+  // The elastic part is not negligible next to the mass (else the checks above are weak).
+  EXPECT_GT((H - mass).norm(), 0.1 * mass.norm());
+}
+
+// (b) The projected Hessian is exactly symmetric and its elastic part PSD, on a strongly
+// compressed block where the unprojected elastic part is indefinite (so the projection
+// is exercised, not just passed through).
+TYPED_TEST(SolidPotentialTest, ProjectedHessianIsSymmetricPositiveSemidefinite) {
+  constexpr int dim = DimOf<TypeParam>::value;
+  std::mt19937 rng(7 + dim);
+  Block<dim> block = make_block<dim>(3, 3, rng, [](std::mt19937& r) {
+    return Mat<dim>(random_rotation<dim>(r) * Real(0.6) * random_deformation<dim>(r));
+  });
+  const SolidIncrementalPotential<dim, TypeParam> potential(block.grid, block.particles, test_material<TypeParam>(),
+                                                            block.nodes, /*dt=*/1e-2);
+  const Vector v = random_vector(rng, potential.unknowns(), -0.5, 0.5);
+  ASSERT_TRUE(std::isfinite(potential.energy(v)));
+  const DenseMatrix mass = potential.mass_diagonal().asDiagonal();
+
+  const DenseMatrix projected = DenseMatrix(potential.hessian(v, true));
+  EXPECT_EQ((projected - projected.transpose()).norm(), 0) << "projected Hessian not symmetric";
+  const Eigen::VectorXd eigen_projected =
+      Eigen::SelfAdjointEigenSolver<DenseMatrix>(projected - mass, Eigen::EigenvaluesOnly).eigenvalues();
+  EXPECT_GE(eigen_projected.minCoeff(), -1e-12 * eigen_projected.cwiseAbs().maxCoeff())
+      << "elastic part of the projected Hessian has eigenvalue " << eigen_projected.minCoeff() << " (largest "
+      << eigen_projected.maxCoeff() << ")";
+
+  const DenseMatrix unprojected = DenseMatrix(potential.hessian(v, false));
+  const Eigen::VectorXd eigen_unprojected =
+      Eigen::SelfAdjointEigenSolver<DenseMatrix>(unprojected - mass, Eigen::EigenvaluesOnly).eigenvalues();
+  EXPECT_LT(eigen_unprojected.minCoeff(), -1e-6 * eigen_unprojected.maxCoeff())
+      << "test case too weak: the unprojected elastic Hessian is already PSD";
+}
+
+// (d) Newton's local rate: a compressed block (F^n = 0.8 I, at rest) expands in one large
+// step. With the exact Hessian (project_hessian = false, which stays SPD here through the
+// mass) and CG tolerance ~ ||g_k||, ||g_{k+1}|| <= C ||g_k||^2 / ||g_0|| once ||g_k|| is
+// small. The projected default must converge too (at a rate the test does not assert).
+TYPED_TEST(SolidPotentialTest, NewtonConvergesQuadraticallyNearTheSolution) {
+  constexpr int dim = DimOf<TypeParam>::value;
+  std::mt19937 rng(99 + dim);
+  Block<dim> block = make_block<dim>(3, 3, rng, [](std::mt19937&) { return Mat<dim>(Real(0.8) * Mat<dim>::Identity()); });
+  const Real dt = 2e-2;
+  const SolidIncrementalPotential<dim, TypeParam> potential(block.grid, block.particles, test_material<TypeParam>(),
+                                                            block.nodes, dt);
+  ProjectedNewtonOptions options;
+  options.project_hessian = false;
+  options.relative_tolerance = 1e-13;
+  options.absolute_tolerance = 0;
+  options.max_iterations = 30;
+  Vector v = potential.initial_velocity();
+  const NewtonResult exact = minimize_projected_newton(potential, v, options);
+  const std::vector<Real>& g = exact.gradient_norms;
+  const std::string message = "exact-Hessian Newton: " + exact.summary();
+  std::cout << "[          ] " << message << '\n';
+  ASSERT_TRUE(exact.converged) << message;
+  ASSERT_GE(exact.iterations, 3) << "too easy to show a rate; " << message;
+
+  // Pairs in the asymptotic regime: ||g_k|| / ||g_0|| < 1e-2, ||g_{k+1}|| above roundoff.
+  const Real C = 10;
+  int checked = 0;
+  for (std::size_t k = 0; k + 1 < g.size(); ++k) {
+    const Real rk = g[k] / g[0], rk1 = g[k + 1] / g[0];
+    if (rk >= 1e-2 || rk1 < 1e-12) continue;
+    ++checked;
+    EXPECT_LE(rk1, C * rk * rk) << "not quadratic at k = " << k << " (C = " << C << "); " << message;
+  }
+  EXPECT_GE(checked, 1) << "no iteration in the asymptotic regime; " << message;
+
+  options.project_hessian = true;
+  options.relative_tolerance = 1e-8;
+  Vector w = potential.initial_velocity();
+  const NewtonResult projected = minimize_projected_newton(potential, w, options);
+  std::cout << "[          ] projected Newton: " << projected.summary() << '\n';
+  EXPECT_TRUE(projected.converged) << projected.summary();
+  EXPECT_LT((w - v).norm(), 1e-5 * v.norm()) << "projected and exact Newton found different minima";
+}
+
+// ---------------------------------------------------------------------------------------
+template <class D>
+class SolidStepTest : public ::testing::Test {};
+TYPED_TEST_SUITE(SolidStepTest, testing::Dimensions);
+
+// (c) A uniform velocity does not deform (sum_i grad w_ip = 0): the elastic energy is
+// unchanged by adding one to any field, and a translating undeformed block is a solution.
+TYPED_TEST(SolidStepTest, RigidTranslationCostsNoElasticEnergy) {
+  constexpr int dim = TypeParam::value;
+  std::mt19937 rng(31 + dim);
+  Block<dim> block = make_block<dim>(3, 3, rng, random_deformation<dim>);
+  const auto material = FixedCorotated<dim>::from_young_poisson(1e5, 0.3);
+  const SolidIncrementalPotential<dim, FixedCorotated<dim>> deformed(block.grid, block.particles, material,
+                                                                     block.nodes, 1e-2);
+  const Vector v = random_vector(rng, deformed.unknowns(), -1, 1);
+  const Vec<dim> shift = testing::random_vector<dim>(rng, -3, 3);
+  const Vector shifted = v + shift.replicate(deformed.unknowns() / dim, 1);
+  EXPECT_NEAR(deformed.elastic_energy(shifted), deformed.elastic_energy(v), 1e-12 * deformed.elastic_energy(v));
+
+  // F^n = I, v^n = a translation, no clamps: v* = v^n with zero Newton iterations.
+  const Vec<dim> translation = testing::random_vector<dim>(rng, -2, 2);
+  Block<dim> rest = make_block<dim>(3, 3, rng, [](std::mt19937&) { return Mat<dim>(Mat<dim>::Identity()); },
+                                    translation);
+  std::vector<Vec<dim>> velocity;
+  const NewtonResult result =
+      solid_step(rest.grid, rest.particles, material, rest.nodes, /*dt=*/1e-2, ProjectedNewtonOptions{}, velocity);
+  EXPECT_TRUE(result.converged) << result.summary();
+  EXPECT_LE(result.iterations, 1) << result.summary();
+  for (std::size_t k = 0; k < velocity.size(); ++k) {
+    if (rest.nodes.mass[k] > 0) {
+      EXPECT_LT((velocity[k] - translation).norm(), 1e-12 * translation.norm()) << "node " << k;
+    }
+  }
+}
+
+// (e) Clamped nodes are not unknowns and keep their prescribed (non-zero) velocity.
+TYPED_TEST(SolidStepTest, ClampedNodesKeepTheirPrescribedVelocity) {
+  constexpr int dim = TypeParam::value;
+  std::mt19937 rng(5 + dim);
+  Block<dim> block = make_block<dim>(3, 4, rng, random_deformation<dim>);
+  for (Vec<dim>& v : block.nodes.velocity) v = testing::random_vector<dim>(rng, -0.5, 0.5);
+  const Vec<dim> prescribed = testing::random_vector<dim>(rng, -1, 1);
+  const int clamped = clamp_nodes_up_to<dim>(block, 3, prescribed);
+  ASSERT_GT(clamped, 0);
+  const auto material = NeoHookean<dim>::from_young_poisson(1e5, 0.3);
+  const SolidIncrementalPotential<dim, NeoHookean<dim>> potential(block.grid, block.particles, material, block.nodes,
+                                                                  1e-2);
+  EXPECT_EQ(potential.unknowns(), dim * (active_nodes(block) - clamped));
+
+  std::vector<Vec<dim>> velocity;
+  const NewtonResult result =
+      solid_step(block.grid, block.particles, material, block.nodes, 1e-2, ProjectedNewtonOptions{}, velocity);
+  EXPECT_TRUE(result.converged) << result.summary();
+  for (std::size_t k = 0; k < velocity.size(); ++k) {
+    if (block.nodes.clamped[k]) {
+      EXPECT_EQ(velocity[k], prescribed) << "clamped node " << k;
+    }
+  }
+
+  // The clamped nodes drive the free ones: an undeformed block whose clamped side moves
+  // with v^n has the rigid translation as its solution, which needs the clamped nodes'
+  // velocities inside F_p(v).
+  Block<dim> rest = make_block<dim>(3, 4, rng, [](std::mt19937&) { return Mat<dim>(Mat<dim>::Identity()); },
+                                    prescribed);
+  clamp_nodes_up_to<dim>(rest, 3, prescribed);
+  const NewtonResult rigid =
+      solid_step(rest.grid, rest.particles, material, rest.nodes, 1e-2, ProjectedNewtonOptions{}, velocity);
+  EXPECT_TRUE(rigid.converged) << rigid.summary();
+  for (std::size_t k = 0; k < velocity.size(); ++k) {
+    if (rest.nodes.mass[k] > 0) {
+      EXPECT_LT((velocity[k] - prescribed).norm(), 1e-10 * prescribed.norm()) << "node " << k;
+    }
+  }
+}
+
+// (f) A block hanging from a clamped side, with v^n = dt g, converges in one large step
+// (dt = 2e-2, ten times dx / c_p = 0.1 / 46 m/s, the explicit limit before its safety factor), lowers the energy,
+// and the support slows the fall without reversing it.
+TYPED_TEST(SolidStepTest, ClampedBlockUnderGravityConverges) {
+  constexpr int dim = TypeParam::value;
+  std::mt19937 rng(11 + dim);
+  const Real dt = 2e-2;
+  Vec<dim> gravity_velocity = Vec<dim>::Zero();
+  gravity_velocity[1] = -9.81 * dt;
+  Block<dim> block = make_block<dim>(
+      2, 5, rng, [](std::mt19937&) { return Mat<dim>(Mat<dim>::Identity()); }, gravity_velocity);
+  const int clamped = clamp_nodes_up_to<dim>(block, 2, Vec<dim>::Zero());
+  ASSERT_GT(clamped, 0);
+  const auto material = NeoHookean<dim>::from_young_poisson(1e6, 0.4);
+  const SolidIncrementalPotential<dim, NeoHookean<dim>> potential(block.grid, block.particles, material, block.nodes,
+                                                                  dt);
+  Vector v = potential.initial_velocity();
+  const Real start_energy = potential.energy(v);
+  const NewtonResult result = minimize_projected_newton(potential, v, ProjectedNewtonOptions{});
+  std::cout << "[          ] " << result.summary() << '\n';
+  ASSERT_TRUE(result.converged) << result.summary();
+  ASSERT_TRUE(v.allFinite());
+  EXPECT_LT(result.iterations, 20) << result.summary();
+  EXPECT_LT(potential.energy(v), start_energy);
+  Real mass = 0, momentum = 0;
+  for (int r = 0; r < potential.unknowns() / dim; ++r) {
+    mass += potential.mass_diagonal()[dim * r];
+    momentum += potential.mass_diagonal()[dim * r] * v[dim * r + 1];
+  }
+  const Real mean_fall = momentum / mass;
+  EXPECT_LT(mean_fall, 0);
+  EXPECT_GT(mean_fall, gravity_velocity[1]);
+}
+
+// A neo-Hookean block collapsing along the first axis so fast that v^n itself would invert
+// it (dt d_0 v_0^n = -1.5, F_00 = -0.5): E(v^n) is infinite, Newton starts from v = 0
+// (F = F^n) and its line search rejects every inverting trial; the step converges with
+// det F_p(v*) > 0.
+TYPED_TEST(SolidStepTest, NeoHookeanStepRejectsInvertingTrials) {
+  constexpr int dim = TypeParam::value;
+  std::mt19937 rng(17 + dim);
+  const Real dt = 1e-2;
+  Block<dim> block = make_block<dim>(3, 3, rng, [](std::mt19937&) { return Mat<dim>(Mat<dim>::Identity()); });
+  const GridLayout<dim> layout = block.grid.nodes();
+  const Vec<dim> centre = Vec<dim>::Constant(0.45);
+  for (int k = 0; k < layout.size(); ++k)
+    block.nodes.velocity[k][0] = -(1.5 / dt) * (block.grid.dual_cell_centre(layout.multi_index(k))[0] - centre[0]);
+  const auto material = NeoHookean<dim>::from_young_poisson(1e5, 0.3);
+  const SolidIncrementalPotential<dim, NeoHookean<dim>> potential(block.grid, block.particles, material, block.nodes,
+                                                                  dt);
+  Vector v = potential.initial_velocity();
+  ASSERT_FALSE(std::isfinite(potential.energy(v))) << "test case too weak: v^n does not invert the block";
+  const NewtonResult result = minimize_projected_newton(potential, v, ProjectedNewtonOptions{});
+  std::cout << "[          ] " << result.summary() << '\n';
+  EXPECT_TRUE(result.started_from_zero);
+  ASSERT_TRUE(result.converged) << result.summary();
+  for (int p = 0; p < potential.particle_count(); ++p)
+    EXPECT_GT(potential.deformation_gradient(p, v).determinant(), 0) << "particle " << p;
+}
+
+// The line search on its own: E(x) = x - log x (minimum at 1, +inf for x <= 0) from x = 4,
+// where the full Newton step lands at x = -8. The trial must be rejected and halved.
+struct BarrierPotential {
+  using SparseMatrix = Eigen::SparseMatrix<Real, Eigen::RowMajor, int>;
+  Real energy(const Vector& x) const {
+    return x[0] > 0 ? x[0] - std::log(x[0]) : std::numeric_limits<Real>::infinity();
+  }
+  Vector gradient(const Vector& x) const { return Vector::Constant(1, 1 - 1 / x[0]); }
+  SparseMatrix hessian(const Vector& x, bool) const {
+    SparseMatrix H(1, 1);
+    H.insert(0, 0) = 1 / (x[0] * x[0]);
+    return H;
+  }
+  Real gradient_scale() const { return 1; }
+};
+
+TEST(ProjectedNewton, LineSearchRejectsNonFiniteTrials) {
+  Vector x = Vector::Constant(1, 4);
+  const NewtonResult result = minimize_projected_newton(BarrierPotential{}, x, ProjectedNewtonOptions{});
+  EXPECT_TRUE(result.converged) << result.summary();
+  EXPECT_GT(result.backtracks, 0) << result.summary();
+  EXPECT_NEAR(x[0], 1, 1e-5);
+  for (std::size_t k = 1; k < result.energies.size(); ++k)
+    EXPECT_LE(result.energies[k], result.energies[k - 1]) << "energy increased at iteration " << k;
+}
+
+}  // namespace
+}  // namespace iqmpm
