@@ -12,7 +12,7 @@ from typing import Callable
 import numpy as np
 
 from . import metrics as m
-from .parse import read_internal_field
+from .parse import read_internal_field, read_sets
 
 G = 9.81
 RHO_W = 1000.0
@@ -287,6 +287,9 @@ def floating_params(variant: FloatingVariant, level: int) -> Params:
         "dz": dz, "zMid": dz / 2,
         "endTime": 5.0, "writeInterval": 0.5, "sampleInterval": 0.01,
         "nBg": n_bg, "nxBody": nx_body, "nyBody": ny_body,
+        # background cell centres, sampled for the water volume
+        "bgPoints": tuple((round((i + 0.5) * h, 9), round((j + 0.5) * h, 9), dz / 2)
+                          for j in range(n_bg) for i in range(n_bg)),
         "tiltDeg": variant.tilt_deg,
         "rhoSolid": variant.rho_solid, "mass": mass,
         "Ixx": mass * (BLOCK_H ** 2 + dz ** 2) / 12,
@@ -319,27 +322,100 @@ def floating_setup(variant: FloatingVariant) -> tuple[tuple[str, ...], ...]:
     )
 
 
-def _crossing_period(t: np.ndarray, y: np.ndarray, t_max: float) -> float | None:
-    """Mean period from the crossings of y through its final mean, t < t_max."""
-    ref = float(np.mean(y[t >= t[-1] - 1.0]))
+def oscillation(t: np.ndarray, y: np.ndarray, window: float = 1.0) -> dict[str, object]:
+    """Period and decay of y(t) about its mean over the last `window` s.
+
+    Crossings of the mean-removed signal (linear interpolation); period =
+    2 x mean spacing of successive crossings; the peaks are the extremes of
+    |y - mean| between successive crossings (half cycles), kept while they
+    exceed 5 % of the first one; decay_ratio = mean ratio of successive peak
+    amplitudes (per half cycle), decay_ratio_per_period = its square.
+    """
+    ref = float(np.mean(y[t >= t[-1] - window]))
     d = y - ref
-    sel = t < t_max
-    tt, dd = t[sel], d[sel]
-    idx = np.nonzero(np.sign(dd[1:]) * np.sign(dd[:-1]) < 0)[0]
-    if len(idx) < 3:
-        return None
-    tc = tt[idx] - dd[idx] * (tt[idx + 1] - tt[idx]) / (dd[idx + 1] - dd[idx])
-    return float(2 * np.mean(np.diff(tc)))
+    idx = np.nonzero(np.sign(d[1:]) * np.sign(d[:-1]) < 0)[0]
+    tc = t[idx] - d[idx] * (t[idx + 1] - t[idx]) / (d[idx + 1] - d[idx])
+    peaks: list[list[float]] = []
+    for a, b in zip(idx[:-1], idx[1:]):
+        k = a + 1 + int(np.argmax(np.abs(d[a + 1:b + 1])))
+        peaks.append([float(t[k]), float(d[k])])
+    if peaks:
+        a0 = abs(peaks[0][1])
+        keep = [q for q in peaks if abs(q[1]) > 0.05 * a0]
+        n = len(keep)
+        peaks = keep
+    else:
+        n = 0
+    res: dict[str, object] = {"mean": ref, "crossings": len(tc), "peaks": peaks,
+                              "period": None, "period_first_cycle": None,
+                              "decay_ratio": None, "decay_ratio_per_period": None}
+    if len(tc) >= 3:
+        # before waves reflected from the tank walls come back
+        res["period_first_cycle"] = float(tc[2] - tc[0])
+        nc = min(len(tc), n + 1) if n >= 2 else len(tc)
+        res["period"] = float(2 * np.mean(np.diff(tc[:max(nc, 3)])))
+    if n >= 2:
+        r = [abs(peaks[k + 1][1]) / abs(peaks[k][1]) for k in range(n - 1)]
+        res["decay_ratio"] = float(np.mean(r))
+        res["decay_ratio_per_period"] = float(np.mean(r)) ** 2
+    return res
 
 
-def overset_volume(case: Path, dz: float) -> m.Series:
-    """Water area of the background mesh less its hole cells (controlDict:
-    waterVolume - (waterVolumeCC - waterVolumeC) / 2, per unit depth)."""
-    t, v = m.volume(case, dz, "waterVolume")
-    tc, vc = m.volume(case, dz, "waterVolumeC")
-    tcc, vcc = m.volume(case, dz, "waterVolumeCC")
-    n = min(len(t), len(tc), len(tcc))
-    return t[:n], v[:n] - 0.5 * (vcc[:n] - vc[:n])
+BODY_BOX = (0.2, 0.15)   # half sizes of the body mesh (body/system/blockMeshDict)
+
+
+def _clip_area(poly: np.ndarray, x0: float, y0: float, x1: float, y1: float) -> float:
+    """Area of a convex polygon (k x 2, counter-clockwise) inside a box."""
+    pts = [tuple(p) for p in poly]
+    for axis, val, keep_ge in ((0, x0, True), (0, x1, False), (1, y0, True), (1, y1, False)):
+        out = []
+        for k in range(len(pts)):
+            a, b = pts[k - 1], pts[k]
+            ina = (a[axis] >= val) if keep_ge else (a[axis] <= val)
+            inb = (b[axis] >= val) if keep_ge else (b[axis] <= val)
+            if ina != inb:
+                f = (val - a[axis]) / (b[axis] - a[axis])
+                out.append((a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1])))
+            if inb:
+                out.append(b)
+        pts = out
+        if not pts:
+            return 0.0
+    xs, ys = np.array([q[0] for q in pts]), np.array([q[1] for q in pts])
+    return float(0.5 * abs(np.dot(xs, np.roll(ys, -1)) - np.dot(ys, np.roll(xs, -1))))
+
+
+def overset_volume(case: Path, p: Params, s: dict[str, m.Series]) -> m.Series:
+    """Water area per unit depth without double counting the overlap:
+    body-mesh integral (it tiles the moving box around the block exactly)
+    plus, for every background cell, its alpha times the part of its square
+    outside the moving box (box pose from com_x, com_y, angle at that time)."""
+    dz, n = float(p["dz"]), int(p["nBg"])  # type: ignore[arg-type]
+    h = 1.0 / n
+    tb, vb = m.volume(case, dz, "bodyWater")
+    times, snaps = read_sets(case, "bgCells", "bg_alpha.water.xy")
+    pose = {round(float(t), 9): i for i, t in enumerate(s["com_x"][0])}
+    hx, hy = BODY_BOX
+    out_t, out_v = [], []
+    body = {round(float(t), 9): v for t, v in zip(tb, vb)}
+    for t, arr in zip(times, snaps):
+        k = round(float(t), 9)
+        if k not in pose or k not in body or arr.shape[0] != n * n:
+            continue
+        i = pose[k]
+        cx, cy, th = s["com_x"][1][i], s["com_y"][1][i], s["angle"][1][i]
+        c, sn = math.cos(th), math.sin(th)
+        box = np.array([(cx + c * dx - sn * dy, cy + sn * dx + c * dy)
+                        for dx, dy in ((-hx, -hy), (hx, -hy), (hx, hy), (-hx, hy))])
+        x, y, a = arr[:, 0], arr[:, 1], np.clip(arr[:, 3], 0.0, 1.0)
+        area = np.full(len(x), h * h)          # part of each cell outside the box
+        near = ((x + h / 2 > box[:, 0].min()) & (x - h / 2 < box[:, 0].max())
+                & (y + h / 2 > box[:, 1].min()) & (y - h / 2 < box[:, 1].max()))
+        for q in np.nonzero(near)[0]:
+            area[q] -= _clip_area(box, x[q] - h / 2, y[q] - h / 2, x[q] + h / 2, y[q] + h / 2)
+        out_t.append(float(t))
+        out_v.append(body[k] + float(np.sum(a * area)))
+    return np.array(out_t), np.array(out_v)
 
 
 def floating_extract(case: Path, p: Params, log: Path) -> Extracted:
@@ -347,7 +423,7 @@ def floating_extract(case: Path, p: Params, log: Path) -> Extracted:
     s = m.rigid_body(case, log)
     s["block_force_x"] = m.force(case, "blockForces", 0, dz)
     s["block_force_y"] = m.force(case, "blockForces", 1, dz)
-    s["volume"] = m.volume(case, dz)
+    s["volume"] = overset_volume(case, p, s)
     s["max_speed"] = m.max_speed(case)
     tl, hl = m.column_height(case, "lines", "levelLeft")
     tr, hr = m.column_height(case, "lines", "levelRight")
@@ -371,12 +447,33 @@ def floating_extract(case: Path, p: Params, log: Path) -> Extracted:
         "equilibrium_com_y_reference": level_ref - d_ref + BLOCK_H / 2,
         "equilibrium_water_level": level, "equilibrium_window_s": [float(t[-1] - 1.0), float(t[-1])],
         "final_angle_deg": float(np.degrees(cols["angle"][-1])),
-        "heave_period": _crossing_period(t, cols["com_y"], 3.0),
+        # com_y-based draft: the still-water level from the water area
+        # (1 m wide tank) with the block at equilibrium, vs com_y - H/2.
+        "equilibrium_draft_from_com_y": None,
         "block_force_y_final": float(np.mean(cols["block_force_y"][last])),
         "block_weight_per_depth": rho_s * BLOCK_W * BLOCK_H * G,
     })
+    heave = oscillation(t, cols["com_y"])
+    sc.update({"heave_period": heave["period"],
+               "heave_period_first_cycle": heave["period_first_cycle"],
+               "heave_decay_ratio": heave["decay_ratio"],
+               "heave_decay_ratio_per_period": heave["decay_ratio_per_period"],
+               "heave_peaks": heave["peaks"]})
+    # Linear estimate 2 pi sqrt((m + m_a) / (rho g A_wp)), m_a ~ rho pi b^2 / 8.
+    m_a = RHO_W * math.pi * BLOCK_W ** 2 / 8
+    sc["heave_period_linear_estimate"] = 2 * math.pi * math.sqrt(
+        (rho_s * BLOCK_W * BLOCK_H + m_a) / (RHO_W * G * BLOCK_W))
+    # still-water level of the final water area with the block at its draft d:
+    # level = V + b d  ->  com_y = V + b d - d + H/2
+    v_end = float(np.mean(cols["volume"][last]))
+    sc["equilibrium_draft_from_com_y"] = (v_end - (com_y - BLOCK_H / 2)) / (1.0 - BLOCK_W)
     if abs(float(np.degrees(cols["angle"][0]))) > 1.0:
-        sc["roll_period"] = _crossing_period(t, cols["angle"], 4.0)
+        roll = oscillation(t, cols["angle"])
+        sc.update({"roll_period": roll["period"],
+                   "roll_period_first_cycle": roll["period_first_cycle"],
+                   "roll_decay_ratio": roll["decay_ratio"],
+                   "roll_decay_ratio_per_period": roll["decay_ratio_per_period"],
+                   "roll_peaks_deg": [[q[0], math.degrees(q[1])] for q in roll["peaks"]]})
     return Extracted(t, cols, sc)
 
 

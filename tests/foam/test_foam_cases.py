@@ -98,19 +98,44 @@ def test_failed_openfoam_run_is_reported_not_extracted(tmp_path: Path) -> None:
 
 
 @needs_openfoam
-def test_diverging_run_is_reported_failed(tmp_path: Path) -> None:
-    # A genuine divergence (a finding of this project, foam_cases/floating_block/
-    # README.md): the floating block blows up near t = 0.06 s at level 1 and
-    # floating-point trapping stops interFoam.
+def test_failed_floating_block_run_is_reported_failed(tmp_path: Path) -> None:
+    # The floating_block cases now run (overset, foam_cases/floating_block/
+    # README.md), so the failure path of the overset solver is checked with an
+    # impossible setting: an unknown linear solver for p_rgh makes
+    # overInterDyMFoam stop with a FOAM FATAL ERROR.
     out = tmp_path / "out"
     r = run("floating_block", "--level", "1", "--end-time", "0.1", "--out", str(out),
-            "--no-vtk")
+            "--no-vtk",
+            "--set", "system/fvSolution:solvers/p_rgh/solver=noSuchSolver")
     assert r.returncode == 1, r.stdout + r.stderr
     assert "last lines of the log" in r.stderr
+    assert "noSuchSolver" in r.stderr
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"].startswith("failed")
     assert summary["log_tail"]
     assert not (out / "metrics.csv").exists()
+
+
+@needs_openfoam
+def test_floating_block_short_run_extracts_metrics(tmp_path: Path) -> None:
+    # Overset formulation (foam_cases/floating_block/README.md): a short run
+    # must give every metric; the water area is 0.5 - 0.2 x 0.03 = 0.494 m^2.
+    out = tmp_path / "out"
+    r = run("floating_block", "--level", "1", "--end-time", "0.05", "--out", str(out),
+            "--no-vtk")
+    assert r.returncode == 0, r.stdout + r.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "ok"
+    assert summary["solver"] == "overInterDyMFoam"
+    with open(out / "metrics.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == 5
+    for col in ("com_x", "com_y", "angle", "block_force_x", "block_force_y", "volume",
+                "max_speed", "water_level"):
+        assert all(math.isfinite(float(row[col])) for row in rows), col
+    assert abs(float(rows[0]["volume"]) - 0.494) < 1e-3
+    assert abs(float(rows[0]["com_y"]) - 0.52) < 0.005
+    assert abs(float(rows[-1]["com_x"]) - 0.5) < 1e-3
 
 
 @needs_openfoam
