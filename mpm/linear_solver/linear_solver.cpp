@@ -121,11 +121,11 @@ class DirectSolver final : public LinearSolver {
 }  // namespace
 
 std::unique_ptr<LinearSolver> make_linear_solver(const LinearSolverOptions& options, int unknowns, int dim) {
-  if (options.method == "cholmod" ||
-      (options.method == "auto" && dim == 2 && unknowns <= options.cholmod_max_unknowns))
+  if (options.method == "cholmod")
     return std::make_unique<DirectSolver<Eigen::CholmodDecomposition<Sparse, Eigen::Lower>>>("cholmod");
-  // Eigen's simplicial LDL^T with AMD ordering: no external library, for comparison.
-  if (options.method == "ldlt") return std::make_unique<DirectSolver<Eigen::SimplicialLDLT<Sparse, Eigen::Lower>>>("ldlt");
+  // Eigen's simplicial LDL^T with AMD ordering.
+  if (options.method == "ldlt" || (options.method == "auto" && dim == 2 && unknowns <= options.direct_max_unknowns))
+    return std::make_unique<DirectSolver<Eigen::SimplicialLDLT<Sparse, Eigen::Lower>>>("ldlt");
   return std::make_unique<PcgSolver>(options);
 }
 

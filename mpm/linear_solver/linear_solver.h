@@ -1,5 +1,5 @@
 // Linear solvers for the symmetric positive (semi-)definite pressure system, behind one
-// interface: preconditioned CG (MIC(0) or Jacobi) and SuiteSparse CHOLMOD.
+// interface: preconditioned CG (incomplete Cholesky or Jacobi), Eigen LDL^T and SuiteSparse CHOLMOD.
 #pragma once
 
 #include <Eigen/SparseCore>
@@ -15,7 +15,7 @@ struct LinearSolverOptions {
   std::string preconditioner = "ichol";  // ichol | jacobi (pcg only)
   Real tolerance = 1e-8;                // relative residual ||b - A x|| / ||b||
   int max_iterations = 2000;
-  int cholmod_max_unknowns = 100000;    // auto, 2-D: CHOLMOD up to this size, PCG above
+  int direct_max_unknowns = 100000;     // auto, 2-D: direct LDL^T up to this size, PCG above
   bool warm_start = true;
 };
 
@@ -35,8 +35,10 @@ class LinearSolver {
 };
 
 // Chooses the solver for a system of `unknowns` rows according to the options. "auto" is
-// CHOLMOD for 2-D systems up to cholmod_max_unknowns and PCG otherwise: measured fastest on
-// the dam break (2-D) and on the 3-D hydrostatic tank, where direct fill-in explodes.
+// Eigen's LDL^T for 2-D systems up to direct_max_unknowns and PCG otherwise. Measured
+// (benchmarks/solvers/run.sh, dam break, 2 cores): LDL^T 2.0 / 12.9 ms a solve at dx = a/32
+// / a/64, CHOLMOD 2.5 / 13.8 ms, PCG 15 / 137 ms; in 3-D direct fill-in explodes (CHOLMOD
+// 2.8 s a solve on the 3-D hydrostatic tank, warm-started PCG 0.1 s).
 std::unique_ptr<LinearSolver> make_linear_solver(const LinearSolverOptions& options, int unknowns, int dim);
 
 }  // namespace iqmpm

@@ -157,11 +157,11 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
     JsonReader solver = root.object("solver", "linear solver of the pressure system");
     auto& o = scene.solver;
     o.method = solver.choice("method", o.method, {"auto", "pcg", "cholmod", "ldlt"},
-                             "auto: CHOLMOD in 2-D up to cholmod_max_unknowns unknowns, PCG otherwise (measured fastest); pcg; cholmod (direct, SuiteSparse); ldlt (direct, Eigen)");
+                             "auto: ldlt in 2-D up to direct_max_unknowns unknowns, pcg otherwise (measured fastest, README); pcg: conjugate gradients; cholmod: SuiteSparse CHOLMOD (direct); ldlt: Eigen simplicial LDL^T (direct)");
     o.preconditioner = solver.choice("preconditioner", o.preconditioner, {"ichol", "jacobi"}, "PCG preconditioner: incomplete Cholesky (threshold fill, AMD ordering) or Jacobi");
     o.tolerance = solver.number("tolerance", o.tolerance, 0, 1, "PCG relative residual tolerance", true);
     o.max_iterations = solver.integer("max_iterations", o.max_iterations, 1, 1000000, "PCG iteration cap; reaching it stops the run");
-    o.cholmod_max_unknowns = solver.integer("cholmod_max_unknowns", o.cholmod_max_unknowns, 0, std::numeric_limits<int>::max(), "auto: largest 2-D system solved by CHOLMOD");
+    o.direct_max_unknowns = solver.integer("direct_max_unknowns", o.direct_max_unknowns, 0, std::numeric_limits<int>::max(), "auto: largest 2-D system solved directly");
     o.warm_start = solver.boolean("warm_start", o.warm_start, "PCG starts from the previous step's pressures");
     solver.finish();
   }
