@@ -168,6 +168,18 @@ def reduce_series(t: np.ndarray, y: np.ndarray, reducer: str, tail: float = 0.5)
     if reducer == "mean_tail":
         start = s.t[-1] - tail * (s.t[-1] - s.t[0])
         return float(np.mean(s.y[s.t >= start]))
+    if reducer == "mean_periods":
+        # mean over whole periods of an oscillation about its equilibrium (the static value of
+        # a decaying vibration): between the first and last upward mean crossing of the tail;
+        # a series without two crossings (a steady solver) gives its last value.
+        start = s.t[-1] - tail * (s.t[-1] - s.t[0])
+        t_tail, y_tail = s.t[s.t >= start], s.y[s.t >= start]
+        z = y_tail - np.mean(y_tail)
+        up = np.nonzero((z[:-1] < 0) & (z[1:] >= 0))[0]
+        if len(up) < 2:
+            return float(s.y[-1])
+        window = slice(up[0] + 1, up[-1] + 1)
+        return float(np.trapz(y_tail[window], t_tail[window]) / (t_tail[up[-1]] - t_tail[up[0] + 1]))
     if reducer in ("period", "frequency"):
         period = mean_period(s.t, s.y)
         if reducer == "period":

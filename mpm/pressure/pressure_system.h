@@ -40,12 +40,14 @@ class PressureSystem {
     rows_ = 0;
   }
 
-  // Adds a block of rows. `rows` are triplets with block-local row indices; compliance and
-  // rhs_offset have one entry per row (empty means zero).
+  // Adds a block of rows. `rows` are triplets with block-local row indices and column
+  // indices local to one material's velocities, which start at `column_offset` in the
+  // stacked vector; compliance and rhs_offset have one entry per row (empty means zero).
   int add_block(const std::string& name, int size, const std::vector<Eigen::Triplet<Real>>& rows,
-                const std::vector<Real>& compliance = {}, const std::vector<Real>& rhs_offset = {}) {
+                const std::vector<Real>& compliance = {}, const std::vector<Real>& rhs_offset = {},
+                int column_offset = 0) {
     Block block{name, rows_, size};
-    for (const auto& t : rows) triplets_.emplace_back(t.row() + rows_, t.col(), t.value());
+    for (const auto& t : rows) triplets_.emplace_back(t.row() + rows_, t.col() + column_offset, t.value());
     for (int i = 0; i < size; ++i) {
       compliance_.push_back(compliance.empty() ? 0 : compliance[i]);
       offset_rhs_.push_back(rhs_offset.empty() ? 0 : rhs_offset[i]);

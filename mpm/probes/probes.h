@@ -56,9 +56,11 @@ Real evaluate_probe(const Simulation<dim>& sim, const ProbeSpec& probe) {
     return sum / Real(1 << dim);
   }
   if (probe.type == "wall_force") return sim.wall_force(probe.wall_axis, probe.wall_side);
+  if (probe.type == "displacement") return sim.tracked_displacement(probe.name)[probe.axis];
   if (probe.type == "max_speed") {
     Real speed = 0;
     for (const auto& v : fluid.velocity) speed = std::max(speed, v.norm());
+    for (const auto& v : sim.solid().velocity) speed = std::max(speed, v.norm());
     return speed;
   }
   if (probe.type == "volume") return sim.fluid_volume();

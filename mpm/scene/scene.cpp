@@ -44,7 +44,8 @@ ProbeSpec read_probe(JsonReader& r, int dim, const std::vector<Real>& domain_min
   ProbeSpec p;
   const bool doc = r.documenting();
   p.type = r.choice("type", std::nullopt,
-                    {"front", "water_height", "pressure", "wall_force", "max_speed", "volume", "hydrostatic_pressure_error"},
+                    {"front", "water_height", "pressure", "wall_force", "max_speed", "volume", "hydrostatic_pressure_error",
+                     "displacement"},
                     "what the probe measures (a metrics.csv column per probe)");
   const std::string default_name = p.type == "front" ? "front_x"
                                    : p.type == "water_height" ? "height_left"
@@ -55,14 +56,20 @@ ProbeSpec read_probe(JsonReader& r, int dim, const std::vector<Real>& domain_min
   p.name = r.text("name", default_name, "column name in metrics.csv (benchmarks.md names)");
   if (p.name.empty() || p.name == "t") throw InputError(fmt::format("scene key '{}.name': must be non-empty and not 't'", r.path()));
   if (p.type == "front" || doc) {
-    p.axis = r.integer("axis", 0, 0, dim - 1, "front: axis along which the front travels (largest coordinate reported)");
+    p.axis = r.integer("axis", 0, 0, dim - 1, "front: axis along which the front travels (largest coordinate reported); displacement: the component reported (0 = x)");
     p.band = r.number("below", -1, -1, kInf, "front: only fluid particles lower than this height (m) count; -1 = one cell above the floor");
   }
   if (p.type == "water_height" || doc) {
     p.position = r.number("position", std::nullopt, -kInf, kInf, "water_height: first-axis coordinate of the gauge (m)");
     p.band = r.number("half_width", -1, -1, kInf, "water_height: particles within this distance of the gauge count (m); -1 = one cell. The height is the top of the column connected to the floor (splashes above an empty cell do not count)");
   }
-  if (p.type == "pressure" || doc) p.point = r.vector("point", std::nullopt, dim, "pressure: sample point (m); the mean pressure of the 2^dim dual cells nearest to it (filters the Q1-P0 checkerboard mode)");
+  if (p.type == "displacement" && !doc) p.axis = r.integer("axis", 0, 0, dim - 1, "");
+  if (p.type == "pressure" || p.type == "displacement" || doc)
+    p.point = r.vector("point", std::nullopt, dim,
+                       "pressure: sample point (m); the mean pressure of the 2^dim dual cells nearest to it (filters the Q1-P0 "
+                       "checkerboard mode). displacement: the material point of a solid followed (a massless marker moved by "
+                       "the solid's grid velocity, so any point of a body, e.g. the middle of a beam's end face); the column is "
+                       "its displacement along axis (m)");
   if (p.type == "wall_force" || doc) {
     std::vector<std::string> sides;
     for (int a = 0; a < dim; ++a) sides.insert(sides.end(), {kSideNames[a][0], kSideNames[a][1]});
@@ -73,12 +80,49 @@ ProbeSpec read_probe(JsonReader& r, int dim, const std::vector<Real>& domain_min
   }
   if (p.type == "hydrostatic_pressure_error" || doc)
     p.surface = r.number("surface", std::nullopt, -kInf, kInf, "hydrostatic_pressure_error: still-water level H (m); relative L2 error of p vs rho g (H - y) over the fluid cells");
-  if (!doc && p.type == "pressure")
+  if (!doc && (p.type == "pressure" || p.type == "displacement"))
     for (int a = 0; a < dim; ++a)
       if (p.point[a] < domain_min[a] || p.point[a] > domain_max[a])
         throw InputError(fmt::format("scene key '{}.point': outside the domain on axis {}", r.path(), a));
   r.finish();
   return p;
+}
+
+SolidSpec read_solid(JsonReader& r, int dim, int index) {
+  SolidSpec s;
+  const bool doc = r.documenting();
+  s.name = r.text("name", "solid" + std::to_string(index), "name of the body (logs, outputs); default solid<index>");
+  s.model = r.choice("model", s.model, {"fixed_corotated", "neo_hookean"}, "hyperelastic model (method.md §1)");
+  s.density = r.number("density", s.density, 0, kInf, "solid density rho_s (kg/m^3)", true);
+  // Elastic constants: either (youngs_modulus, poisson_ratio) or (mu, lambda).
+  const bool young = r.has("youngs_modulus") || r.has("poisson_ratio");
+  const bool lame = r.has("mu") || r.has("lambda");
+  if (!doc && young == lame)
+    throw InputError(fmt::format("scene key '{}': give the elasticity as either youngs_modulus and poisson_ratio, or mu and lambda (exactly one pair)", r.path()));
+  if (young || doc) {
+    const Real E = r.number("youngs_modulus", std::nullopt, 0, kInf, "Young's modulus E (Pa); with poisson_ratio (or give mu and lambda instead). 2-D is plane strain", true);
+    const Real nu = r.number("poisson_ratio", std::nullopt, -1, 0.5, "Poisson ratio nu, -1 < nu < 0.5", true);
+    if (!doc && nu >= 0.5)
+      throw InputError(fmt::format("scene key '{}.poisson_ratio' = {:g}: out of range, accepted: > -1 and < 0.5", r.path(), nu));
+    s.mu = E / (2 * (1 + nu));
+    s.lambda = E * nu / ((1 + nu) * (1 - 2 * nu));
+  }
+  if (lame || doc) {
+    s.mu = r.number("mu", std::nullopt, 0, kInf, "shear modulus mu (Pa); with lambda (or give youngs_modulus and poisson_ratio instead)", true);
+    s.lambda = r.number("lambda", std::nullopt, 0, kInf, "first Lame parameter lambda (Pa)");
+  }
+  s.ghost_stiffness = r.number("ghost_stiffness", s.ghost_stiffness, 0, kInf,
+                               "lambda_g (Pa), stiffness of the air-like ghost matrix carried by the solid (method.md §1, §9); "
+                               "default 1e5 Pa, about air's bulk modulus", true);
+  s.initial_velocity = r.vector("initial_velocity", std::vector<Real>(dim, 0), dim, "initial velocity of the body (m/s)");
+  for (auto& shape : r.objects("shapes", "regions the body fills; a particle is seeded where any shape contains it"))
+    s.shapes.push_back(read_shape(shape, dim));
+  for (auto& shape : r.objects("clamps", "regions held fixed (Dirichlet, zero velocity): every solid velocity node whose centre (a dual-cell centre) lies in a region or within dx/2 of it along an axis is fixed, so that the quadratic velocity field vanishes on the region (exactly, when its edges lie on cell faces); a region may reach outside the domain"))
+    s.clamps.push_back(read_shape(shape, dim));
+  r.finish();
+  if (!doc && s.shapes.empty())
+    throw InputError(fmt::format("scene key '{}.shapes': a solid needs at least one shape", r.path()));
+  return s;
 }
 
 SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
@@ -154,6 +198,35 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
     fluid.finish();
   }
   {
+    int index = 0;
+    for (auto& solid : root.objects("solids", "elastic bodies (absent: no solid); each its own material, outputs and ghost matrix"))
+      scene.solids.push_back(read_solid(solid, dim, index++));
+    if (docs) {
+      Json example = {{"type", "box"}};
+      JsonReader solid(example, "solids[]", docs);
+      read_solid(solid, dim, 0);
+      JsonReader shape(example, "solids[].shapes[]", docs);
+      read_shape(shape, dim);
+      JsonReader clamp(example, "solids[].clamps[]", docs);
+      read_shape(clamp, dim);
+    }
+  }
+  {
+    JsonReader newton = root.object("newton", "projected Newton of the implicit solid step (method.md §3 step 2)");
+    auto& o = scene.newton;
+    o.relative_tolerance = newton.number("relative_tolerance", o.relative_tolerance, 0, 1, "stop when |gradient| <= this x the first gradient norm of the step", true);
+    o.absolute_tolerance = newton.number("absolute_tolerance", o.absolute_tolerance, 0, 1,
+                                         "also stop when |gradient| <= this x |m| (max |v^n| + dx/dt), a momentum scale: "
+                                         "a body in free fall has a gradient at the roundoff floor");
+    o.max_iterations = newton.integer("max_iterations", o.max_iterations, 1, 10000, "Newton iterations per step; reaching it without convergence stops the run");
+    o.cg_max_iterations = newton.integer("cg_max_iterations", o.cg_max_iterations, 1, 1000000, "inner (diagonally preconditioned) CG iterations per Newton iteration");
+    o.linear_solver = newton.choice("linear_solver", o.linear_solver, {"auto", "direct", "cg"},
+                                    "Newton direction: direct (sparse LDL^T, exact steps), cg (diagonal PCG, inexact Newton), "
+                                    "auto = direct in 2-D, cg in 3-D");
+    o.project_hessian = newton.boolean("project_hessian", o.project_hessian, "per-particle PSD projection of dP/dF (projected Newton); false: plain Newton with gradient fallback");
+    newton.finish();
+  }
+  {
     JsonReader solver = root.object("solver", "linear solver of the pressure system");
     auto& o = scene.solver;
     o.method = solver.choice("method", o.method, {"auto", "pcg", "cholmod", "ldlt"},
@@ -178,7 +251,12 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
       for (std::size_t j = 0; j < i; ++j)
         if (scene.probes[i].name == scene.probes[j].name)
           throw InputError(fmt::format("scene key 'probes[{}].name' = \"{}\": already used by probes[{}]", i, scene.probes[i].name, j));
-    if (scene.fluid.shapes.empty()) throw InputError("scene key 'fluid.shapes': the scene has no material (give at least one shape)");
+    if (scene.fluid.shapes.empty() && scene.solids.empty())
+      throw InputError("scene key 'fluid.shapes': the scene has no material (give at least one fluid shape or a solid in 'solids')");
+    for (std::size_t i = 0; i < scene.solids.size(); ++i)
+      for (std::size_t j = 0; j < i; ++j)
+        if (scene.solids[i].name == scene.solids[j].name)
+          throw InputError(fmt::format("scene key 'solids[{}].name' = \"{}\": already used by solids[{}]", i, scene.solids[i].name, j));
   }
   return scene;
 }

@@ -21,12 +21,12 @@ struct ShapeSpec {
 };
 
 struct ProbeSpec {
-  std::string type;   // front | water_height | pressure | wall_force | max_speed | volume | hydrostatic_pressure_error
+  std::string type;   // front | water_height | pressure | wall_force | max_speed | volume | hydrostatic_pressure_error | displacement
   std::string name;   // metrics.csv column
-  int axis = 0;               // front: direction of travel
+  int axis = 0;               // front: direction of travel; displacement: component
   Real band = -1;             // front: particles below this height count; water_height: half-width (m); -1 = one cell
   Real position = 0;          // water_height: coordinate along the first axis
-  std::vector<Real> point;    // pressure
+  std::vector<Real> point;    // pressure; displacement: the material point followed
   int wall_axis = 0, wall_side = 0;  // wall_force
   Real surface = 0;           // hydrostatic_pressure_error: still-water level
 };
@@ -37,6 +37,29 @@ struct FluidSpec {
   std::vector<Real> initial_velocity;
   std::string surface_quadrature = "particles";  // particles | centre
   Real position_correction = 0;  // relaxation of the particle position correction; 0 = off
+};
+
+// One elastic body (method.md §1): hyperelastic model, density, the ghost matrix's
+// stiffness lambda_g, the regions it fills and the regions where it is clamped.
+struct SolidSpec {
+  std::string name;
+  std::string model = "fixed_corotated";  // fixed_corotated | neo_hookean
+  Real density = 1000;
+  Real mu = 0, lambda = 0;                // Lame parameters (from E, nu when given so)
+  Real ghost_stiffness = 1e5;             // lambda_g (Pa)
+  std::vector<ShapeSpec> shapes;
+  std::vector<ShapeSpec> clamps;          // nodes whose centre lies inside are fixed
+  std::vector<Real> initial_velocity;
+};
+
+// Projected Newton options of the implicit solid step (method.md §3 step 2).
+struct NewtonSpec {
+  Real relative_tolerance = 1e-5;
+  Real absolute_tolerance = 1e-9;
+  int max_iterations = 50;
+  int cg_max_iterations = 1000;
+  bool project_hessian = true;
+  std::string linear_solver = "auto";  // auto | direct | cg
 };
 
 struct SceneSpec {
@@ -55,6 +78,8 @@ struct SceneSpec {
   Real dt_min = 1e-7, dt_max = 1e-2;
   std::array<std::array<std::string, 2>, 3> walls;  // [axis][side]: slip | none
   FluidSpec fluid;
+  std::vector<SolidSpec> solids;
+  NewtonSpec newton;
   LinearSolverOptions solver;
   std::vector<ProbeSpec> probes;
   Json document;  // the scene as given (after --set), stored in summary.json

@@ -20,19 +20,28 @@ namespace {
 
 template <int dim>
 ParticleFrame make_frame(const Simulation<dim>& sim, double time) {
+  // Fluid particles (material 0, pressure p_f) then solid ones (1 + body, pressure p_g).
   ParticleFrame frame;
   const auto& fluid = sim.fluid();
+  const auto& solid = sim.solid();
   frame.time = time;
-  frame.count = int(fluid.size());
+  frame.count = int(fluid.size() + solid.size());
   frame.position.assign(3 * frame.count, 0);
   frame.velocity.assign(3 * frame.count, 0);
   frame.pressure = sim.fluid_particle_pressure();
-  frame.material.assign(frame.count, 0);
-  for (int p = 0; p < frame.count; ++p)
-    for (int a = 0; a < dim; ++a) {
-      frame.position[3 * p + a] = fluid.position[p][a];
-      frame.velocity[3 * p + a] = fluid.velocity[p][a];
-    }
+  const auto solid_pressure = sim.solid_particle_pressure();
+  frame.pressure.insert(frame.pressure.end(), solid_pressure.begin(), solid_pressure.end());
+  frame.material.assign(fluid.size(), 0);
+  for (int body : solid.body) frame.material.push_back(1 + body);
+  auto copy = [&](const Particles<dim>& particles, std::size_t first) {
+    for (std::size_t p = 0; p < particles.size(); ++p)
+      for (int a = 0; a < dim; ++a) {
+        frame.position[3 * (first + p) + a] = particles.position[p][a];
+        frame.velocity[3 * (first + p) + a] = particles.velocity[p][a];
+      }
+  };
+  copy(fluid, 0);
+  copy(solid, fluid.size());
   return frame;
 }
 
@@ -63,6 +72,9 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
   long iterations_total = 0;
   int iterations_min = std::numeric_limits<int>::max(), iterations_max = 0;
   int wall_clamps = 0;
+  long newton_total = 0, newton_cg_total = 0;
+  int newton_min = std::numeric_limits<int>::max(), newton_max = 0;
+  double solid_min_J = 1;
   std::string linear_method;
   std::string status = "ok";
 
@@ -84,6 +96,11 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
       iterations_min = std::min(iterations_min, stats.linear.iterations);
       iterations_max = std::max(iterations_max, stats.linear.iterations);
       wall_clamps += stats.wall_clamps;
+      newton_total += stats.newton_iterations;
+      newton_cg_total += stats.newton_cg_iterations;
+      newton_min = std::min(newton_min, stats.newton_iterations);
+      newton_max = std::max(newton_max, stats.newton_iterations);
+      solid_min_J = std::min(solid_min_J, double(stats.solid_min_J));
       linear_method = stats.linear.method;
       sample(t);
       for (std::size_t c = 1; c < result.metrics.back().size(); ++c)
@@ -114,20 +131,25 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
       {"t_final", t},
       {"wall_time_s", elapsed()},
       {"steps", steps},
-      {"particles", sim.fluid().size()},
+      {"particles", sim.fluid().size() + sim.solid().size()},
       {"fluid_particles", sim.fluid().size()},
-      {"solid_particles", 0},
+      {"solid_particles", sim.solid().size()},
       {"active_cells", sim.last_step().pressure_unknowns},
       {"active_cells_max", max_active_cells},
       {"stage_seconds", stage_seconds},
       {"linear_solver", linear_method},
       {"linear_iterations",
        {{"min", steps ? iterations_min : 0}, {"mean", steps ? double(iterations_total) / steps : 0.0}, {"max", iterations_max}}},
-      {"newton_iterations", {{"min", 0}, {"mean", 0.0}, {"max", 0}}},
+      {"newton_iterations",
+       {{"min", steps && sim.has_solids() ? newton_min : 0},
+        {"mean", steps ? double(newton_total) / steps : 0.0},
+        {"max", newton_max},
+        {"cg_per_step", steps ? double(newton_cg_total) / steps : 0.0}}},
+      {"solid_min_J", solid_min_J},
       {"wall_clamps", wall_clamps},
       {"initial_volume", initial_volume},
       {"final_volume", final_volume},
-      {"volume_drift", (final_volume - initial_volume) / initial_volume},
+      {"volume_drift", initial_volume > 0 ? (final_volume - initial_volume) / initial_volume : 0.0},
       {"threads", omp_get_max_threads()},
       {"version", IQMPM_VERSION},
       {"scene", scene.document},

@@ -1,10 +1,13 @@
 // One IQ-MPM simulation in `dim` dimensions. step() reads like the algorithm of
-// method.md §3; each stage is timed. The fluid half is complete; solids (Newton step,
-// ghost matrix) and the interface blocks plug into the same pressure system.
+// method.md §3; each stage is timed, and a stage the scene does not need (no fluid, no
+// solid) is skipped, so it does not appear in the timings. The interface blocks (IQ)
+// plug into the same pressure system.
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <map>
+#include <string>
 #include <vector>
 
 #include "core/stage_timer.h"
@@ -12,9 +15,12 @@
 #include "fluid/fluid_operators.h"
 #include "grid/grid.h"
 #include "linear_solver/linear_solver.h"
+#include "materials/solid_material.h"
 #include "particles/particles.h"
 #include "pressure/pressure_system.h"
 #include "scene/scene.h"
+#include "solid/ghost_matrix.h"
+#include "solid/projected_newton.h"
 #include "transfer/apic.h"
 
 namespace iqmpm {
@@ -24,6 +30,9 @@ struct StepStats {
   int velocity_unknowns = 0;
   LinearSolveStats linear;
   int wall_clamps = 0;  // particles pushed back inside a slip wall this step
+  int newton_iterations = 0;
+  int newton_cg_iterations = 0;
+  Real solid_min_J = 1;  // smallest det F of a solid particle after the step
 };
 
 template <int dim>
@@ -39,6 +48,14 @@ class Simulation {
   const Grid<dim>& grid() const { return grid_; }
   const Particles<dim>& fluid() const { return fluid_; }
   Particles<dim>& fluid() { return fluid_; }
+  const Particles<dim>& solid() const { return solid_; }
+  bool has_fluid() const { return !fluid_.empty(); }
+  bool has_solids() const { return !solid_.empty(); }
+  // Displacement of the material point followed by a `displacement` probe (by probe name).
+  Vec<dim> tracked_displacement(const std::string& probe_name) const;
+  // Ghost-matrix pressure of a dual cell from the last solve; 0 where no solid.
+  Real ghost_pressure(int dual_cell) const;
+  std::vector<Real> solid_particle_pressure() const;
   const SceneSpec& scene() const { return scene_; }
   const StageTimer& timer() const { return timer_; }
   const StepStats& last_step() const { return last_; }
@@ -62,14 +79,17 @@ class Simulation {
   const Eigen::VectorXd& grid_velocity_after_projection() const { return velocity_next_; }
 
  private:
+  void seed_solids();
   void sort_particles();
   void particles_to_grid(Real dt);
+  void solve_solid_momentum(Real dt);
   void build_fluid_operators();
+  void build_solid_operators();
   void assemble_pressure_system(Real dt);
   void solve_pressure_system();
   void update_grid_velocities();
   void grid_to_particles(Real dt);
-  void keep_particles_in_domain();
+  void keep_particles_in_domain(Particles<dim>& particles, const char* kind);
   void correct_particle_positions();
 
   SceneSpec scene_;
@@ -82,6 +102,25 @@ class Simulation {
   ParticleBins<dim> fluid_bins_;
   GridMomentum<dim> corner_momentum_;
   FluidOperators<dim> ops_;
+  // Solids (all bodies share one particle set; Particles::body says which).
+  Particles<dim> solid_;
+  ParticleBins<dim> solid_bins_;
+  GridMomentum<dim> node_momentum_;
+  std::vector<SolidMaterial<dim>> materials_;  // per body
+  std::vector<Real> ghost_stiffness_;          // lambda_g per body
+  std::vector<std::uint8_t> clamped_node_;     // dense over nodes; empty: no clamp
+  std::vector<std::uint8_t> wall_held_axes_;   // dense over nodes; bit a: component held by a wall this step
+  ProjectedNewtonOptions newton_options_;
+  std::vector<Vec<dim>> node_velocity_star_;   // v_s* after Newton, dense over nodes
+  std::vector<Vec<dim>> node_velocity_;        // v_s^{n+1}, dense over nodes
+  SolidOperators<dim> solid_ops_;
+  std::vector<Real> previous_ghost_;           // p_g by dual cell, warm start
+  // Markers of displacement probes: massless points moved by the solid grid velocity.
+  std::vector<std::string> marker_name_;
+  std::vector<Vec<dim>> marker_start_, marker_position_;
+  // Offsets of the blocks in the solution vector (-1: absent).
+  int ghost_offset_ = -1, pressure_offset_ = -1, wall_offset_ = -1;
+  int fluid_column_offset_ = 0;  // solid velocities first, then fluid
   Eigen::VectorXd velocity_star_;  // stacked grid velocities before the projection
   PressureSystem system_;
   Eigen::VectorXd lambda_;         // solution (p_f, y)

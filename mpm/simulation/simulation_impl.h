@@ -4,9 +4,11 @@
 
 #include <cmath>
 #include <fmt/format.h>
+#include <limits>
 
 #include "core/errors.h"
 #include "simulation/seeding.h"
+#include "solid/incremental_potential.h"
 #include "simulation/simulation.h"
 
 namespace iqmpm {
@@ -24,21 +26,114 @@ Simulation<dim>::Simulation(const SceneSpec& scene) : scene_(scene) {
   for (int a = 0; a < dim; ++a)
     for (int s = 0; s < 2; ++s) slip_[a][s] = scene.walls[a][s] == "slip";
   fluid_density_ = scene.fluid.density;
-  Vec<dim> v0;
-  for (int a = 0; a < dim; ++a) v0[a] = scene.fluid.initial_velocity[a];
-  seed_particles<dim>(grid_, scene.fluid.shapes, scene.particles_per_axis, scene.jitter, scene.seed,
-                      fluid_density_, v0, fluid_);
-  if (fluid_.empty())
-    throw InputError("scene key 'fluid.shapes': no particle was seeded (the shapes lie outside the domain or are thinner than a particle spacing)");
+  newton_options_.relative_tolerance = scene.newton.relative_tolerance;
+  newton_options_.absolute_tolerance = scene.newton.absolute_tolerance;
+  newton_options_.max_iterations = scene.newton.max_iterations;
+  newton_options_.cg_max_iterations = scene.newton.cg_max_iterations;
+  newton_options_.project_hessian = scene.newton.project_hessian;
+  newton_options_.direct = scene.newton.linear_solver == "direct" || (scene.newton.linear_solver == "auto" && dim == 2);
+
+  if (!scene.fluid.shapes.empty()) {
+    Vec<dim> v0;
+    for (int a = 0; a < dim; ++a) v0[a] = scene.fluid.initial_velocity[a];
+    Particles<dim> seeded;
+    seed_particles<dim>(grid_, scene.fluid.shapes, scene.particles_per_axis, scene.jitter, scene.seed,
+                        fluid_density_, v0, seeded);
+    // A solid displaces the fluid it is placed in.
+    for (std::size_t p = 0; p < seeded.size(); ++p) {
+      bool inside_solid = false;
+      for (const auto& solid : scene.solids)
+        for (const auto& shape : solid.shapes) inside_solid = inside_solid || shape.contains(seeded.position[p].data(), dim);
+      if (!inside_solid) fluid_.add(seeded.position[p], seeded.velocity[p], seeded.mass[p], seeded.initial_volume[p]);
+    }
+    if (fluid_.empty())
+      throw InputError("scene key 'fluid.shapes': no particle was seeded (the shapes lie outside the domain or are thinner than a particle spacing)");
+  }
   for (const auto& x : fluid_.position)
     if (!grid_.dual_cells().contains(dual_cell_of<dim>(grid_.to_cells(x))))
       throw InputError("scene key 'fluid.shapes': a shape reaches outside the domain");
+  seed_solids();
+}
+
+// Solid particles: F = I, J_g = 1 (the ghost matrix starts unstressed), one body index per
+// solid; clamped nodes from the clamp regions; markers of the displacement probes.
+template <int dim>
+void Simulation<dim>::seed_solids() {
+  const GridLayout<dim> nodes = grid_.nodes();
+  for (std::size_t b = 0; b < scene_.solids.size(); ++b) {
+    const SolidSpec& spec = scene_.solids[b];
+    const std::string key = fmt::format("solids[{}]", b);
+    SolidMaterial<dim> material;
+    material.model = solid_model_from_name(spec.model);
+    material.mu = spec.mu;
+    material.lambda = spec.lambda;
+    materials_.push_back(material);
+    ghost_stiffness_.push_back(spec.ghost_stiffness);
+    Vec<dim> v0;
+    for (int a = 0; a < dim; ++a) v0[a] = spec.initial_velocity[a];
+    Particles<dim> seeded;
+    seed_particles<dim>(grid_, spec.shapes, scene_.particles_per_axis, scene_.jitter, scene_.seed + unsigned(b) + 1,
+                        spec.density, v0, seeded);
+    if (seeded.empty())
+      throw InputError(fmt::format("scene key '{}.shapes': no particle was seeded (outside the domain or thinner than a particle spacing)", key));
+    for (std::size_t p = 0; p < seeded.size(); ++p) {
+      if (!grid_.dual_cells().contains(dual_cell_of<dim>(grid_.to_cells(seeded.position[p]))))
+        throw InputError(fmt::format("scene key '{}.shapes': a shape reaches outside the domain", key));
+      solid_.add(seeded.position[p], seeded.velocity[p], seeded.mass[p], seeded.initial_volume[p]);
+      solid_.deformation_gradient.push_back(Mat<dim>::Identity());
+      solid_.ghost_J.push_back(1);
+      solid_.body.push_back(int(b));
+    }
+    if (!spec.clamps.empty()) {
+      if (clamped_node_.empty()) clamped_node_.assign(nodes.size(), 0);
+      int count = 0;
+      // A node is fixed when its centre lies in a clamp region or within dx/2 of it along an
+      // axis: the quadratic B-spline velocity then vanishes on the whole region when its edges
+      // lie on cell faces (a node reaches 1.5 dx), and nowhere outside it, so a clamped
+      // beam's free length is the scene's, not one cell longer or shorter.
+      const Real reach = Real(0.5) * grid_.dx * (1 + 1e-9);
+      for (int k = 0; k < nodes.size(); ++k) {
+        const Vec<dim> centre = grid_.dual_cell_centre(nodes.multi_index(k));
+        bool inside = false;
+        for (const auto& clamp : spec.clamps) {
+          inside = inside || clamp.contains(centre.data(), dim);
+          for (int a = 0; a < dim && !inside; ++a)
+            for (Real shift : {-reach, reach}) {
+              Vec<dim> x = centre;
+              x[a] += shift;
+              inside = inside || clamp.contains(x.data(), dim);
+            }
+        }
+        if (inside && !clamped_node_[k]) {
+          clamped_node_[k] = 1;
+          ++count;
+        }
+      }
+      if (count == 0)
+        throw InputError(fmt::format("scene key '{}.clamps': no velocity node (dual-cell centre) lies inside the clamp regions", key));
+    }
+  }
+  for (std::size_t i = 0; i < scene_.probes.size(); ++i) {
+    const ProbeSpec& probe = scene_.probes[i];
+    if (probe.type != "displacement") continue;
+    Vec<dim> x;
+    for (int a = 0; a < dim; ++a) x[a] = probe.point[a];
+    Real nearest = std::numeric_limits<Real>::infinity();
+    for (const auto& xp : solid_.position) nearest = std::min(nearest, (xp - x).norm());
+    if (!(nearest <= grid_.dx))
+      throw InputError(fmt::format("scene key 'probes[{}].point': a displacement probe must follow a point of a solid; "
+                                   "no solid particle lies within dx of it", i));
+    marker_name_.push_back(probe.name);
+    marker_start_.push_back(x);
+    marker_position_.push_back(x);
+  }
 }
 
 template <int dim>
 Real Simulation<dim>::stable_dt() const {
   Real max_speed = 0;
   for (const auto& v : fluid_.velocity) max_speed = std::max(max_speed, v.norm());
+  for (const auto& v : solid_.velocity) max_speed = std::max(max_speed, v.norm());
   // A particle at rest gains sqrt(|g| dx) falling one cell: the floor keeps the first steps safe.
   const Real speed = std::max(max_speed, std::sqrt(gravity_.norm() * grid_.dx));
   Real dt = speed > 0 ? scene_.cfl * grid_.dx / speed : scene_.dt_max;
@@ -49,29 +144,81 @@ template <int dim>
 void Simulation<dim>::step(Real dt) {
   if (dt < scene_.dt_min)
     throw NumericalFailure(fmt::format("time step {:.3g} s below dt_min {:.3g} s", dt, scene_.dt_min));
+  last_.wall_clamps = 0;
   sort_particles();
   particles_to_grid(dt);
-  build_fluid_operators();
+  if (has_solids()) solve_solid_momentum(dt);
+  if (has_fluid()) build_fluid_operators();
+  if (has_solids()) build_solid_operators();
   assemble_pressure_system(dt);
   solve_pressure_system();
   update_grid_velocities();
   grid_to_particles(dt);
-  if (scene_.fluid.position_correction > 0) correct_particle_positions();
+  if (has_fluid() && scene_.fluid.position_correction > 0) correct_particle_positions();
 }
 
 template <int dim>
 void Simulation<dim>::sort_particles() {
   auto scope = timer_.scope("sort");
-  fluid_bins_ = sort_particles_by_cell(grid_, fluid_);
+  if (has_fluid()) fluid_bins_ = sort_particles_by_cell(grid_, fluid_);
+  if (has_solids()) solid_bins_ = sort_particles_by_cell(grid_, solid_);
 }
 
 // §3 step 1: APIC P2G; gravity enters the grid momentum.
 template <int dim>
 void Simulation<dim>::particles_to_grid(Real dt) {
   auto scope = timer_.scope("p2g");
-  fluid_particles_to_grid(grid_, fluid_, fluid_bins_, corner_momentum_);
-  for (std::size_t k = 0; k < corner_momentum_.mass.size(); ++k)
-    corner_momentum_.momentum[k] += dt * corner_momentum_.mass[k] * gravity_;
+  if (has_fluid()) {
+    fluid_particles_to_grid(grid_, fluid_, fluid_bins_, corner_momentum_);
+    for (std::size_t k = 0; k < corner_momentum_.mass.size(); ++k)
+      corner_momentum_.momentum[k] += dt * corner_momentum_.mass[k] * gravity_;
+  }
+  if (has_solids()) {
+    solid_particles_to_grid(grid_, solid_, solid_bins_, node_momentum_);
+    for (std::size_t k = 0; k < node_momentum_.mass.size(); ++k)
+      node_momentum_.momentum[k] += dt * node_momentum_.mass[k] * gravity_;
+  }
+}
+
+// §3 step 2: v_s^n -> v_s* by projected Newton on the incremental potential. Clamped nodes
+// are Dirichlet; a node whose quadratic support reaches through a slip wall (the outermost
+// two node layers) and that moves into the wall has its normal component held at zero:
+// free slip, no penetration, and separation allowed (method.md §1 walls).
+template <int dim>
+void Simulation<dim>::solve_solid_momentum(Real dt) {
+  auto scope = timer_.scope("newton");
+  const GridLayout<dim> nodes = grid_.nodes();
+  SolidNodes<dim> state;
+  state.mass = node_momentum_.mass;
+  state.velocity.assign(nodes.size(), Vec<dim>::Zero());
+  state.clamped = clamped_node_;
+  state.fixed_axes.assign(nodes.size(), 0);
+  for (int k = 0; k < nodes.size(); ++k) {
+    if (!(state.mass[k] > 0)) continue;
+    const Vec<dim> v = node_momentum_.momentum[k] / state.mass[k];
+    state.velocity[k] = v;
+    const IVec<dim> i = nodes.multi_index(k);
+    for (int a = 0; a < dim; ++a) {
+      if (slip_[a][0] && i[a] <= 0 && v[a] <= 0) state.fixed_axes[k] |= std::uint8_t(1u << a);
+      if (slip_[a][1] && i[a] >= grid_.cells[a] - 1 && v[a] >= 0) state.fixed_axes[k] |= std::uint8_t(1u << a);
+    }
+  }
+  const SolidIncrementalPotential<dim, SolidMaterial<dim>> potential(grid_, solid_, materials_, solid_.body, state, dt);
+  auto v = potential.initial_velocity();
+  const NewtonResult result = minimize_projected_newton(potential, v, newton_options_);
+  last_.newton_iterations = result.iterations;
+  last_.newton_cg_iterations = result.cg_iterations;
+  if (!result.converged)
+    throw NumericalFailure(fmt::format("solid Newton step did not converge: {}; try a smaller dt_max or cfl, or a "
+                                       "larger newton.max_iterations", result.summary()));
+  potential.scatter(v, node_velocity_star_);
+  wall_held_axes_ = std::move(state.fixed_axes);  // kept at zero by the pressure solve too
+}
+
+template <int dim>
+void Simulation<dim>::build_solid_operators() {
+  auto scope = timer_.scope("solid operators");
+  solid_ops_ = iqmpm::build_solid_operators<dim>(grid_, solid_, solid_bins_, node_momentum_.mass, ghost_stiffness_);
 }
 
 template <int dim>
@@ -81,28 +228,60 @@ void Simulation<dim>::build_fluid_operators() {
                                                 scene_.fluid.surface_quadrature == "centre");
 }
 
-// §5: blocks p_f (G^fT) and y (B); the solid blocks are added here when a scene has solids.
+// §5: the stacked velocities are the solid nodes' (v_s*, after Newton) then the fluid
+// corners' (v_f^n); the blocks are p_g (ghost matrix, G^sT with compliance S/dt and offset
+// S p_g^n/dt), p_f (G^fT) and y (B), each present only when the scene needs it. A clamped
+// node, or a component held by a wall, gets zero inverse mass: the solve cannot move it.
 template <int dim>
 void Simulation<dim>::assemble_pressure_system(Real dt) {
   auto scope = timer_.scope("assembly");
-  const int nv = ops_.velocity_dofs();
-  Eigen::VectorXd inverse_mass(nv * dim);
-  velocity_star_.resize(nv * dim);
-  for (int d = 0; d < nv; ++d) {
+  const int ns = has_solids() ? solid_ops_.velocity_dofs() : 0;
+  const int nf = has_fluid() ? ops_.velocity_dofs() : 0;
+  fluid_column_offset_ = ns * dim;
+  Eigen::VectorXd inverse_mass((ns + nf) * dim);
+  velocity_star_.resize((ns + nf) * dim);
+  for (int d = 0; d < ns; ++d) {
+    const int node = solid_ops_.node_of_dof[d];
+    const bool clamped = !clamped_node_.empty() && clamped_node_[node];
+    const Vec<dim>& v = node_velocity_star_[node];
+    for (int a = 0; a < dim; ++a) {
+      // A wall-held component is exactly zero after Newton and must stay so.
+      const bool held = clamped || (wall_held_axes_[node] & (1u << a));
+      inverse_mass[d * dim + a] = held ? 0 : 1 / node_momentum_.mass[node];
+      velocity_star_[d * dim + a] = v[a];
+    }
+  }
+  for (int d = 0; d < nf; ++d) {
     const int corner = ops_.corner_of_dof[d];
     // v^n from the APIC transfer (momentum / transferred mass); M^f from the quadrature.
     const Vec<dim> v = corner_momentum_.momentum[corner] / corner_momentum_.mass[corner];
     for (int a = 0; a < dim; ++a) {
-      inverse_mass[d * dim + a] = 1 / ops_.mass[d];
-      velocity_star_[d * dim + a] = v[a];
+      inverse_mass[fluid_column_offset_ + d * dim + a] = 1 / ops_.mass[d];
+      velocity_star_[fluid_column_offset_ + d * dim + a] = v[a];
     }
   }
   system_.reset(inverse_mass);
-  system_.add_block("p_f", ops_.pressure_unknowns(), ops_.gradient_transpose);
-  if (!ops_.wall_faces.empty()) system_.add_block("y", int(ops_.wall_faces.size()), ops_.wall_rows);
+  ghost_offset_ = pressure_offset_ = wall_offset_ = -1;
+  if (has_solids()) {
+    std::vector<Real> compliance(solid_ops_.pressure_unknowns()), offset(solid_ops_.pressure_unknowns());
+    for (int j = 0; j < solid_ops_.pressure_unknowns(); ++j) {
+      compliance[j] = solid_ops_.compliance[j] / dt;
+      offset[j] = solid_ops_.compliance[j] * solid_ops_.previous_pressure[j] / dt;
+    }
+    ghost_offset_ = system_.unknowns();
+    system_.add_block("p_g", solid_ops_.pressure_unknowns(), solid_ops_.gradient_transpose, compliance, offset);
+  }
+  if (has_fluid()) {
+    pressure_offset_ = system_.unknowns();
+    system_.add_block("p_f", ops_.pressure_unknowns(), ops_.gradient_transpose, {}, {}, fluid_column_offset_);
+    if (!ops_.wall_faces.empty()) {
+      wall_offset_ = system_.unknowns();
+      system_.add_block("y", int(ops_.wall_faces.size()), ops_.wall_rows, {}, {}, fluid_column_offset_);
+    }
+  }
   system_.assemble(dt);
   last_.pressure_unknowns = system_.unknowns();
-  last_.velocity_unknowns = nv * dim;
+  last_.velocity_unknowns = (ns + nf) * dim;
 }
 
 template <int dim>
@@ -110,15 +289,17 @@ void Simulation<dim>::solve_pressure_system() {
   auto scope = timer_.scope("solve");
   const Eigen::VectorXd rhs = system_.rhs(velocity_star_);
   // Warm start from the previous step's solution, matched by dual cell and wall face.
-  const int np = ops_.pressure_unknowns();
-  Eigen::VectorXd x(system_.unknowns());
-  for (int i = 0; i < np; ++i)
-    x[i] = previous_pressure_.empty() ? 0 : previous_pressure_[ops_.cell_of_pressure[i]];
-  for (std::size_t f = 0; f < ops_.wall_faces.size(); ++f) {
-    const auto& face = ops_.wall_faces[f];
-    auto it = previous_wall_.find({face.dual_cell, face.wall.axis * 2 + face.wall.side});
-    x[np + f] = it == previous_wall_.end() ? 0 : it->second;
-  }
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(system_.unknowns());
+  if (ghost_offset_ >= 0 && !previous_ghost_.empty())
+    for (int j = 0; j < solid_ops_.pressure_unknowns(); ++j) x[ghost_offset_ + j] = previous_ghost_[solid_ops_.cell_of_pressure[j]];
+  if (pressure_offset_ >= 0 && !previous_pressure_.empty())
+    for (int i = 0; i < ops_.pressure_unknowns(); ++i) x[pressure_offset_ + i] = previous_pressure_[ops_.cell_of_pressure[i]];
+  if (wall_offset_ >= 0)
+    for (std::size_t f = 0; f < ops_.wall_faces.size(); ++f) {
+      const auto& face = ops_.wall_faces[f];
+      auto it = previous_wall_.find({face.dual_cell, face.wall.axis * 2 + face.wall.side});
+      if (it != previous_wall_.end()) x[wall_offset_ + f] = it->second;
+    }
   auto solver = make_linear_solver(scene_.solver, system_.unknowns(), dim);
   last_.linear = solver->solve(system_.matrix(), rhs, x);
   if (!last_.linear.converged || !x.allFinite())
@@ -128,13 +309,20 @@ void Simulation<dim>::solve_pressure_system() {
         last_.linear.method, last_.linear.relative_residual, last_.linear.iterations, scene_.solver.tolerance,
         system_.unknowns()));
   lambda_ = x;
-  previous_pressure_.assign(grid_.dual_cells().size(), 0);
-  for (int i = 0; i < np; ++i) previous_pressure_[ops_.cell_of_pressure[i]] = x[i];
-  previous_wall_.clear();
-  for (std::size_t f = 0; f < ops_.wall_faces.size(); ++f) {
-    const auto& face = ops_.wall_faces[f];
-    previous_wall_[{face.dual_cell, face.wall.axis * 2 + face.wall.side}] = x[np + f];
+  if (ghost_offset_ >= 0) {
+    previous_ghost_.assign(grid_.dual_cells().size(), 0);
+    for (int j = 0; j < solid_ops_.pressure_unknowns(); ++j) previous_ghost_[solid_ops_.cell_of_pressure[j]] = x[ghost_offset_ + j];
   }
+  if (pressure_offset_ >= 0) {
+    previous_pressure_.assign(grid_.dual_cells().size(), 0);
+    for (int i = 0; i < ops_.pressure_unknowns(); ++i) previous_pressure_[ops_.cell_of_pressure[i]] = x[pressure_offset_ + i];
+  }
+  previous_wall_.clear();
+  if (wall_offset_ >= 0)
+    for (std::size_t f = 0; f < ops_.wall_faces.size(); ++f) {
+      const auto& face = ops_.wall_faces[f];
+      previous_wall_[{face.dual_cell, face.wall.axis * 2 + face.wall.side}] = x[wall_offset_ + f];
+    }
 }
 
 // §5: v^{n+1} = v* - dt M^-1 D^T lambda.
@@ -142,31 +330,73 @@ template <int dim>
 void Simulation<dim>::update_grid_velocities() {
   auto scope = timer_.scope("velocity update");
   velocity_next_ = system_.corrected_velocity(velocity_star_, lambda_);
-  corner_velocity_.assign(grid_.corners().size(), Vec<dim>::Zero());
-  for (int d = 0; d < ops_.velocity_dofs(); ++d)
-    for (int a = 0; a < dim; ++a) corner_velocity_[ops_.corner_of_dof[d]][a] = velocity_next_[d * dim + a];
+  if (has_fluid()) {
+    corner_velocity_.assign(grid_.corners().size(), Vec<dim>::Zero());
+    for (int d = 0; d < ops_.velocity_dofs(); ++d)
+      for (int a = 0; a < dim; ++a)
+        corner_velocity_[ops_.corner_of_dof[d]][a] = velocity_next_[fluid_column_offset_ + d * dim + a];
+  }
+  if (has_solids()) {
+    node_velocity_ = node_velocity_star_;
+    for (int d = 0; d < solid_ops_.velocity_dofs(); ++d)
+      for (int a = 0; a < dim; ++a) node_velocity_[solid_ops_.node_of_dof[d]][a] = velocity_next_[d * dim + a];
+  }
 }
 
 // §3 step 5.
 template <int dim>
 void Simulation<dim>::grid_to_particles(Real dt) {
   auto scope = timer_.scope("g2p");
-  fluid_grid_to_particles(grid_, corner_velocity_, dt, fluid_);
-  keep_particles_in_domain();
+  if (has_fluid()) {
+    fluid_grid_to_particles(grid_, corner_velocity_, dt, fluid_);
+    keep_particles_in_domain(fluid_, "fluid");
+  }
+  if (!has_solids()) return;
+  // Solid: v_p, C_p, F_p^{n+1} = (I + dt grad v) F_p^n; J_g = 1 - p_g / lambda_g from the
+  // solved matrix pressure of the particle's dual cell (before it moves); then x += dt v.
+  std::vector<Mat<dim>> velocity_gradient;
+  solid_grid_to_particles(grid_, node_velocity_, solid_, &velocity_gradient);
+  const GridLayout<dim> cells = grid_.dual_cells();
+  const int n = int(solid_.size());
+  Real min_J = std::numeric_limits<Real>::infinity();
+#pragma omp parallel for schedule(static) reduction(min : min_J)
+  for (int p = 0; p < n; ++p) {
+    solid_.deformation_gradient[p] = (Mat<dim>::Identity() + dt * velocity_gradient[p]) * solid_.deformation_gradient[p];
+    min_J = std::min(min_J, solid_.deformation_gradient[p].determinant());
+    const int cell = cells.index(dual_cell_of<dim>(grid_.to_cells(solid_.position[p])));
+    solid_.ghost_J[p] = 1 - ghost_pressure(cell) / ghost_stiffness_[solid_.body[p]];
+    solid_.position[p] += dt * solid_.velocity[p];
+  }
+  last_.solid_min_J = min_J;
+  if (!(min_J > 0))
+    throw NumericalFailure(fmt::format("a solid particle inverted (det F = {:.3g} <= 0): the step was too large for the "
+                                       "solid's stiffness; lower dt_max or cfl", min_J));
+  // Markers move with the solid grid velocity at their position (N2 interpolation).
+  const GridLayout<dim> nodes = grid_.nodes();
+  for (auto& x : marker_position_) {
+    const auto stencil = quadratic_stencil<dim>(grid_.to_cells(x), grid_.dx);
+    Vec<dim> v = Vec<dim>::Zero();
+    for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
+      const IVec<dim> node = stencil.base + offset;
+      if (nodes.contains(node)) v += stencil.weight(offset) * node_velocity_[nodes.index(node)];
+    });
+    x += dt * v;
+  }
+  keep_particles_in_domain(solid_, "solid");
 }
 
 // A particle pushed through a slip wall by round-off or a large step is put back just
 // inside; one more than a cell beyond any side, or beyond a side without a wall, means the
 // step was unstable and the run stops (method.md §9).
 template <int dim>
-void Simulation<dim>::keep_particles_in_domain() {
+void Simulation<dim>::keep_particles_in_domain(Particles<dim>& particles, const char* kind) {
   const Vec<dim> lower = grid_.origin, upper = grid_.upper();
   const Real margin = 1e-4 * grid_.dx;
   int clamps = 0;
-  for (std::size_t p = 0; p < fluid_.size(); ++p) {
-    Vec<dim>& x = fluid_.position[p];
-    if (!x.allFinite() || !fluid_.velocity[p].allFinite())
-      throw NumericalFailure(fmt::format("fluid particle {} has a non-finite position or velocity (NaN): the step was unstable", p));
+  for (std::size_t p = 0; p < particles.size(); ++p) {
+    Vec<dim>& x = particles.position[p];
+    if (!x.allFinite() || !particles.velocity[p].allFinite())
+      throw NumericalFailure(fmt::format("{} particle {} has a non-finite position or velocity (NaN): the step was unstable", kind, p));
     for (int a = 0; a < dim; ++a)
       for (int s = 0; s < 2; ++s) {
         const Real wall = s == 0 ? lower[a] : upper[a];
@@ -174,13 +404,13 @@ void Simulation<dim>::keep_particles_in_domain() {
         if (outside < -margin) continue;
         if (!slip_[a][s] || outside > grid_.dx)
           throw NumericalFailure(fmt::format(
-              "fluid particle {} left the domain through side {}{} at {:.4g} m (wall at {:.4g} m){}", p, "xyz"[a],
+              "{} particle {} left the domain through side {}{} at {:.4g} m (wall at {:.4g} m){}", kind, p, "xyz"[a],
               s == 0 ? '-' : '+', x[a], wall, slip_[a][s] ? ": more than a cell beyond the wall in one step, lower cfl" : ""));
         x[a] = s == 0 ? wall + margin : wall - margin;
         ++clamps;
       }
   }
-  last_.wall_clamps = clamps;
+  last_.wall_clamps += clamps;
 }
 
 // Optional position correction (method.md §3 step 6): particles drift into clusters and
@@ -238,22 +468,47 @@ void Simulation<dim>::correct_particle_positions() {
     for_each_offset<dim, 2>([&](const IVec<dim>& offset) { shift += stencil.weight(offset) * corner_displacement[corners.index(stencil.base + offset)]; });
     fluid_.position[p] += shift;
   }
-  keep_particles_in_domain();
+  keep_particles_in_domain(fluid_, "fluid");
 }
 
 template <int dim>
 Real Simulation<dim>::fluid_pressure(int dual_cell) const {
-  if (ops_.pressure_of_cell.empty() || lambda_.size() == 0) return 0;
+  if (pressure_offset_ < 0 || ops_.pressure_of_cell.empty() || lambda_.size() == 0) return 0;
   const int i = ops_.pressure_of_cell[dual_cell];
-  return i >= 0 ? lambda_[i] : 0;
+  return i >= 0 ? lambda_[pressure_offset_ + i] : 0;
+}
+
+template <int dim>
+Real Simulation<dim>::ghost_pressure(int dual_cell) const {
+  if (ghost_offset_ < 0 || solid_ops_.pressure_of_cell.empty() || lambda_.size() == 0) return 0;
+  const int j = solid_ops_.pressure_of_cell[dual_cell];
+  return j >= 0 ? lambda_[ghost_offset_ + j] : 0;
+}
+
+template <int dim>
+std::vector<Real> Simulation<dim>::solid_particle_pressure() const {
+  std::vector<Real> out(solid_.size(), 0);
+  const auto cells = grid_.dual_cells();
+  for (std::size_t p = 0; p < solid_.size(); ++p) {
+    const IVec<dim> c = dual_cell_of<dim>(grid_.to_cells(solid_.position[p]));
+    if (cells.contains(c)) out[p] = ghost_pressure(cells.index(c));
+  }
+  return out;
+}
+
+template <int dim>
+Vec<dim> Simulation<dim>::tracked_displacement(const std::string& probe_name) const {
+  for (std::size_t m = 0; m < marker_name_.size(); ++m)
+    if (marker_name_[m] == probe_name) return marker_position_[m] - marker_start_[m];
+  return Vec<dim>::Constant(std::nan(""));
 }
 
 template <int dim>
 Real Simulation<dim>::wall_force(int axis, int side) const {
-  if (lambda_.size() == 0) return 0;
+  if (lambda_.size() == 0 || wall_offset_ < 0) return 0;
   // Force on the wall = sum_k y_k |face_k| n_k (n: outward normal of the fluid).
   const Real face_area = grid_.cell_volume() / grid_.dx;
-  const int np = ops_.pressure_unknowns();
+  const int np = wall_offset_;
   Real force = 0;
   for (std::size_t f = 0; f < ops_.wall_faces.size(); ++f)
     if (ops_.wall_faces[f].wall.axis == axis && ops_.wall_faces[f].wall.side == side)

@@ -15,6 +15,9 @@
 // prescribed velocity: it enters F_p as a constant and is not an unknown; its kinetic
 // term is then constant and left out of E. The Hessian's sparsity pattern (the node pairs
 // that share a particle) is built once per step; every evaluation fills the same pattern.
+// A wall-held component (SolidNodes::fixed_axes) stays an unknown, but starts at zero and
+// has a zero gradient entry and an identity-times-mass Hessian row and column, so Newton
+// never moves it: the Dirichlet condition by projection, without renumbering the blocks.
 #pragma once
 
 #include <Eigen/Core>
@@ -40,6 +43,9 @@ struct SolidNodes {
   std::vector<Vec<dim>> velocity;          // v_i^n = momentum / mass, gravity included
   std::vector<std::uint8_t> clamped;       // 1 = Dirichlet node; empty: no node clamped
   std::vector<Vec<dim>> clamped_velocity;  // prescribed velocity; empty: zero
+  // Bit a set: component a of the node is held at zero (a free-slip wall normal, method.md
+  // §1); the other components stay free. Empty: no such node.
+  std::vector<std::uint8_t> fixed_axes;
 };
 
 template <int dim, class Material>
@@ -80,8 +86,12 @@ class SolidIncrementalPotential {
   int dense_node(int r) const { return free_node_[r]; }
   int free_number(int dense) const { return free_number_[dense]; }
 
-  // v^n on the free nodes: the usual starting guess.
-  Vector initial_velocity() const { return velocity_n_; }
+  // v^n on the free nodes, wall-held components at zero: the usual starting guess.
+  Vector initial_velocity() const {
+    Vector v = velocity_n_;
+    for (int k : fixed_entries_) v[k] = 0;
+    return v;
+  }
   // m_i repeated per component: the kinetic part of the Hessian.
   const Vector& mass_diagonal() const { return mass_; }
 
@@ -139,6 +149,7 @@ class SolidIncrementalPotential {
         const int r = stencil_free_[p * kStencil + e];
         if (r >= 0) g.template segment<dim>(dim * r) += stress[p] * b_[p * kStencil + e];
       }
+    for (int k : fixed_entries_) g[k] = 0;
     return g;
   }
 
@@ -188,6 +199,12 @@ class SolidIncrementalPotential {
         }
       }
     }
+    if (!fixed_entries_.empty())
+      for (int row = 0; row < unknowns(); ++row)
+        for (int k = pattern_row_start_[row]; k < pattern_row_start_[row + 1]; ++k) {
+          const int column = pattern_columns_[k];
+          if (fixed_[row] || fixed_[column]) values[k] = row == column ? mass_[row] : 0;
+        }
     return H;
   }
 
@@ -229,9 +246,16 @@ class SolidIncrementalPotential {
     const int count = int(free_node_.size());
     mass_.resize(dim * count);
     velocity_n_.resize(dim * count);
+    fixed_.assign(dim * count, 0);
     for (int r = 0; r < count; ++r) {
       mass_.template segment<dim>(dim * r).setConstant(nodes.mass[free_node_[r]]);
       velocity_n_.template segment<dim>(dim * r) = nodes.velocity[free_node_[r]];
+      if (nodes.fixed_axes.empty()) continue;
+      for (int a = 0; a < dim; ++a)
+        if (nodes.fixed_axes[free_node_[r]] & (1u << a)) {
+          fixed_[dim * r + a] = 1;
+          fixed_entries_.push_back(dim * r + a);
+        }
     }
   }
 
@@ -343,6 +367,8 @@ class SolidIncrementalPotential {
   std::vector<Vec<dim>> dense_velocity_;  // dense; v^n, clamped nodes set to their value
   Vector mass_;        // per unknown
   Vector velocity_n_;  // per unknown
+  std::vector<char> fixed_;         // per unknown: held at zero by a wall
+  std::vector<int> fixed_entries_;  // the unknowns with fixed_ set
 
   std::vector<Real> volume_;
   std::vector<Mat<dim>> F_constant_;

@@ -2,7 +2,9 @@
 // Potential with
 //   Vector initial_velocity(), Real energy(x) (+inf outside the domain), Vector gradient(x),
 //   SparseMatrix hessian(x, bool project_to_psd), Real gradient_scale().
-// Direction: H d = -g by CG with a diagonal preconditioner, to the relative tolerance
+// Direction: H d = -g either by a sparse LDL^T factorisation (direct, exact Newton steps; the
+// symbolic analysis is done once per minimisation since the pattern does not change), or
+// by CG with a diagonal preconditioner, to the relative tolerance
 // eta_k = min(cg_max_tolerance, max(cg_min_tolerance, cg_forcing ||g_k|| / ||g_0||)), which
 // keeps Newton's local quadratic rate (inexact Newton with eta_k = O(||g_k||)).
 // Step: backtracking (Armijo) line search on the energy; a trial with a non-finite energy
@@ -13,6 +15,7 @@
 #pragma once
 
 #include <Eigen/IterativeLinearSolvers>
+#include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 
 #include <cmath>
@@ -30,6 +33,7 @@ struct ProjectedNewtonOptions {
   Real absolute_tolerance = 1e-12;  // on ||g_k|| / gradient_scale() (a body at rest, roundoff)
   int max_iterations = 50;          // Newton iterations
   bool project_hessian = true;      // per-particle PSD projection of dP/dF (SPD system)
+  bool direct = false;              // LDL^T factorisation instead of CG for the direction
   Real cg_forcing = 1;              // eta_k = cg_forcing ||g_k|| / ||g_0||, clamped to:
   Real cg_max_tolerance = 0.5;
   Real cg_min_tolerance = 1e-12;
@@ -115,16 +119,32 @@ NewtonResult minimize_projected_newton(const Potential& potential, Eigen::Matrix
   }
 
   Eigen::ConjugateGradient<SparseMatrix, Eigen::Lower | Eigen::Upper, Eigen::DiagonalPreconditioner<Real>> cg;
+  using ColumnMatrix = Eigen::SparseMatrix<Real, Eigen::ColMajor, int>;
+  Eigen::SimplicialLDLT<ColumnMatrix> ldlt;
+  bool analysed = false;
   result.status = NewtonStatus::max_iterations;
   for (int k = 0; k < options.max_iterations; ++k) {
     const SparseMatrix H = potential.hessian(x, options.project_hessian);
-    cg.compute(H);
-    cg.setMaxIterations(options.cg_max_iterations);
-    cg.setTolerance(std::min(options.cg_max_tolerance,
-                             std::max(options.cg_min_tolerance, options.cg_forcing * g_norm / g0)));
-    Vector d = cg.solve(-g);
-    result.cg_iterations += int(cg.iterations());
-    if (cg.info() != Eigen::Success) ++result.cg_unfinished;
+    Vector d;
+    bool solved = false;
+    if (options.direct) {
+      const ColumnMatrix Hc = H;
+      if (!analysed) ldlt.analyzePattern(Hc), analysed = true;
+      ldlt.factorize(Hc);
+      if (ldlt.info() == Eigen::Success) {
+        d = ldlt.solve(-g);
+        solved = d.allFinite();
+      }
+    }
+    if (!solved) {  // CG, or the factorisation failed (an unprojected, singular Hessian)
+      cg.compute(H);
+      cg.setMaxIterations(options.cg_max_iterations);
+      cg.setTolerance(std::min(options.cg_max_tolerance,
+                               std::max(options.cg_min_tolerance, options.cg_forcing * g_norm / g0)));
+      d = cg.solve(-g);
+      result.cg_iterations += int(cg.iterations());
+      if (cg.info() != Eigen::Success) ++result.cg_unfinished;
+    }
     if (!d.allFinite()) {
       result.status = NewtonStatus::non_finite;
       break;

@@ -102,3 +102,69 @@ TEST(SceneTest, EveryKeyIsDocumented) {
 
 }  // namespace
 }  // namespace iqmpm
+
+namespace iqmpm {
+namespace {
+
+Json solid_scene() {
+  Json doc = {{"dim", 2},
+              {"domain", {{"min", {0.0, 0.0}}, {"max", {1.0, 1.0}}}},
+              {"dx", 0.1},
+              {"end_time", 1.0},
+              {"solids", Json::array({{{"youngs_modulus", 1e6}, {"poisson_ratio", 0.3},
+                                       {"shapes", Json::array({{{"type", "box"}, {"min", {0.2, 0.2}}, {"max", {0.4, 0.4}}}})}}})}};
+  return doc;
+}
+
+TEST(SceneSolidTest, SolidOnlySceneIsValidWithDefaults) {
+  const SceneSpec scene = read_scene(solid_scene());
+  ASSERT_EQ(scene.solids.size(), 1u);
+  EXPECT_EQ(scene.solids[0].name, "solid0");
+  EXPECT_EQ(scene.solids[0].model, "fixed_corotated");
+  EXPECT_NEAR(scene.solids[0].mu, 1e6 / 2.6, 1e-6);
+  EXPECT_NEAR(scene.solids[0].lambda, 1e6 * 0.3 / (1.3 * 0.4), 1e-6);
+  EXPECT_DOUBLE_EQ(scene.solids[0].ghost_stiffness, 1e5);
+  EXPECT_TRUE(scene.fluid.shapes.empty());
+}
+
+TEST(SceneSolidTest, ElasticConstantsAreOnePairOnly) {
+  Json doc = solid_scene();
+  doc["solids"][0]["mu"] = 1e5;
+  expect_rejected(doc, {"'solids[0]'", "youngs_modulus and poisson_ratio, or mu and lambda"});
+  doc = solid_scene();
+  doc["solids"][0].erase("youngs_modulus");
+  doc["solids"][0].erase("poisson_ratio");
+  expect_rejected(doc, {"'solids[0]'", "exactly one pair"});
+}
+
+TEST(SceneSolidTest, IncompressiblePoissonRatioIsRejected) {
+  Json doc = solid_scene();
+  doc["solids"][0]["poisson_ratio"] = 0.5;
+  expect_rejected(doc, {"'solids[0].poisson_ratio' = 0.5", "< 0.5"});
+}
+
+TEST(SceneSolidTest, UnknownModelAndMissingShapesAreNamed) {
+  Json doc = solid_scene();
+  doc["solids"][0]["model"] = "mooney";
+  expect_rejected(doc, {"'solids[0].model'", "fixed_corotated, neo_hookean"});
+  doc = solid_scene();
+  doc["solids"][0].erase("shapes");
+  expect_rejected(doc, {"'solids[0].shapes'", "at least one shape"});
+}
+
+TEST(SceneSolidTest, DuplicateSolidNamesAreRejected) {
+  Json doc = solid_scene();
+  doc["solids"].push_back(doc["solids"][0]);
+  doc["solids"][0]["name"] = "gate";
+  doc["solids"][1]["name"] = "gate";
+  expect_rejected(doc, {"'solids[1].name' = \"gate\"", "solids[0]"});
+}
+
+TEST(SceneSolidTest, NoMaterialAtAllIsRejected) {
+  Json doc = solid_scene();
+  doc.erase("solids");
+  expect_rejected(doc, {"no material"});
+}
+
+}  // namespace
+}  // namespace iqmpm

@@ -1,0 +1,188 @@
+// Solids in the time step (method.md §3 steps 1, 2, 5 and the ghost-matrix block of §5):
+// the cantilever against beam theory, exact free fall, clamps, the ghost-matrix constraint
+// after the solve, and the stability scenes (block drop, soft beam) of issue #3.
+#include <cmath>
+
+#include "core/errors.h"
+#include "simulation/runner.h"
+#include "simulation/simulation.h"
+#include "../core/test_helpers.h"
+
+namespace iqmpm {
+namespace {
+
+std::string scene_path(const std::string& relative) { return std::string(IQMPM_BENCHMARKS_DIR) + "/" + relative; }
+
+// Static value (time average over whole periods of the second half) and frequency (mean
+// spacing of upward crossings of that value) of a decaying oscillation.
+struct Oscillation {
+  double equilibrium = NAN, frequency = NAN;
+};
+
+Oscillation analyse(const RunResult& result, int column) {
+  std::vector<double> t, y;
+  for (const auto& row : result.metrics) t.push_back(row[0]), y.push_back(row[column]);
+  const double half = 0.5 * t.back();
+  auto upward_crossings = [&](double level, double from) {
+    std::vector<double> times;
+    for (std::size_t k = 1; k < t.size(); ++k)
+      if (t[k - 1] >= from && y[k - 1] < level && y[k] >= level)
+        times.push_back(t[k - 1] + (level - y[k - 1]) * (t[k] - t[k - 1]) / (y[k] - y[k - 1]));
+    return times;
+  };
+  double mean = 0;
+  int count = 0;
+  for (std::size_t k = 0; k < t.size(); ++k)
+    if (t[k] >= half) mean += y[k], ++count;
+  mean /= count;
+  const auto window = upward_crossings(mean, half);
+  Oscillation out;
+  if (window.size() < 2) return out;
+  double integral = 0;  // trapezoid over [first crossing, last crossing]
+  for (std::size_t k = 1; k < t.size(); ++k)
+    if (t[k - 1] >= window.front() && t[k] <= window.back()) integral += 0.5 * (y[k] + y[k - 1]) * (t[k] - t[k - 1]);
+  out.equilibrium = integral / (window.back() - window.front());
+  const auto all = upward_crossings(out.equilibrium, 0);
+  out.frequency = (all.size() - 1) / (all.back() - all.front());
+  return out;
+}
+
+// benchmarks.md: plane-strain beam 3.386 mm (Euler-Bernoulli + shear), 10.7 Hz. Issue #3:
+// within 3 % and 5 % at the default resolution, and the two models within 1 % of each
+// other. 1 s of the 2 s benchmark (about 10 periods) keeps the test short.
+TEST(SolidSimulationTest, CantileverMatchesBeamTheoryWithBothModels) {
+  Oscillation by_model[2];
+  const char* models[2] = {"fixed_corotated", "neo_hookean"};
+  for (int m = 0; m < 2; ++m) {
+    const RunResult result = run_scene(
+        load_scene(scene_path("cantilever/cantilever.json"), {"end_time=1.0", std::string("solids.0.model=") + models[m]}), {});
+    ASSERT_TRUE(result.ok) << result.summary["status"];
+    ASSERT_EQ(result.columns[2], "tip_dy");
+    by_model[m] = analyse(result, 2);
+    EXPECT_NEAR(by_model[m].equilibrium, -3.386e-3, 0.03 * 3.386e-3) << models[m];
+    EXPECT_NEAR(by_model[m].frequency, 10.7, 0.05 * 10.7) << models[m];
+    EXPECT_GE(result.summary["newton_iterations"]["mean"].get<double>(), 1.0);
+    EXPECT_GT(result.summary["solid_min_J"].get<double>(), 0.99);  // small strain
+  }
+  EXPECT_NEAR(by_model[0].equilibrium, by_model[1].equilibrium, 0.01 * std::abs(by_model[0].equilibrium));
+  EXPECT_NEAR(by_model[0].frequency, by_model[1].frequency, 0.01 * by_model[0].frequency);
+}
+
+Json block_scene(const std::vector<double>& lo, const std::vector<double>& hi, double end_time) {
+  return {{"dim", 2},
+          {"domain", {{"min", {0.0, 0.0}}, {"max", {1.0, 1.0}}}},
+          {"dx", 0.05},
+          {"end_time", end_time},
+          {"solids", Json::array({{{"name", "block"}, {"model", "neo_hookean"}, {"youngs_modulus", 1e5},
+                                   {"poisson_ratio", 0.3}, {"initial_velocity", {0.3, 0.0}},
+                                   {"shapes", Json::array({{{"type", "box"}, {"min", lo}, {"max", hi}}})}}})}};
+}
+
+// Uniform translation has no strain: implicit Euler then gives v = v0 + g t exactly, F
+// stays the identity and the ghost matrix stays unstressed (p_g = 0, J_g = 1).
+TEST(SolidSimulationTest, FreeFallIsExact) {
+  Simulation<2> sim(read_scene(block_scene({0.3, 0.6}, {0.5, 0.8}, 0.2)));
+  double t = 0;
+  for (int step = 0; step < 20; ++step) {
+    const double dt = 0.005;
+    sim.step(dt);
+    t += dt;
+  }
+  const auto& solid = sim.solid();
+  for (std::size_t p = 0; p < solid.size(); ++p) {
+    EXPECT_NEAR(solid.velocity[p][0], 0.3, 1e-9);
+    EXPECT_NEAR(solid.velocity[p][1], -9.81 * t, 1e-9);
+    EXPECT_NEAR((solid.deformation_gradient[p] - Mat<2>::Identity()).norm(), 0, 1e-9);
+    EXPECT_NEAR(solid.ghost_J[p], 1, 1e-9);
+  }
+}
+
+// Ghost matrix (method.md §1, §5): after the solve, the p_g rows of the constraint hold,
+//   S (p_g^{n+1} - p_g^n) / dt = G^sT v_s^{n+1},
+// to the direct solver's precision, on a block compressed against the floor.
+TEST(SolidSimulationTest, GhostMatrixConstraintHoldsAfterTheSolve) {
+  Json doc = block_scene({0.3, 0.0}, {0.7, 0.3}, 1.0);
+  doc["solids"][0]["ghost_stiffness"] = 1e6;
+  doc["solids"][0]["initial_velocity"] = {0.0, -0.5};
+  Simulation<2> sim(read_scene(doc));
+  for (int step = 0; step < 5; ++step) sim.step(0.01);
+  const PressureSystem& system = sim.pressure_system();
+  const PressureSystem::Block* ghost = system.find("p_g");
+  ASSERT_NE(ghost, nullptr);
+  EXPECT_EQ(system.find("p_f"), nullptr);  // solid only: no fluid blocks
+  const Eigen::VectorXd v = sim.grid_velocity_after_projection();
+  const Eigen::VectorXd lambda = sim.pressure_solution();
+  // D v^{n+1} = C lambda - offset, with offset = rhs(v) - D v: checked as A lambda = rhs(v*).
+  const Eigen::VectorXd residual = system.matrix() * lambda - system.rhs(sim.grid_velocity_before_projection());
+  const Eigen::VectorXd rhs = system.rhs(sim.grid_velocity_before_projection());
+  EXPECT_LT(residual.norm(), 1e-9 * rhs.norm());
+  // The block is squeezed: a non-trivial ghost pressure, positive (compression) on average.
+  EXPECT_GT(lambda.segment(ghost->offset, ghost->size).mean(), 0);
+  // Velocity recovery: the corrected velocity is v* - dt M^-1 D^T lambda.
+  EXPECT_LT((system.corrected_velocity(sim.grid_velocity_before_projection(), lambda) - v).norm(), 1e-12 * (1 + v.norm()));
+}
+
+// Clamp: the quadratic velocity field vanishes on the clamp region [0, 0.05] of the
+// cantilever, so the particles there never move.
+TEST(SolidSimulationTest, ClampedRegionDoesNotMove) {
+  Simulation<2> sim(load_scene(scene_path("cantilever/cantilever.json"), {}));
+  for (int step = 0; step < 100; ++step) sim.step(1e-3);
+  const auto& solid = sim.solid();
+  int clamped = 0;
+  double largest_speed = 0, tip_speed = 0;
+  for (std::size_t p = 0; p < solid.size(); ++p) {
+    if (solid.position[p][0] < 0.05) {
+      ++clamped;
+      largest_speed = std::max(largest_speed, solid.velocity[p].norm());
+    }
+    if (solid.position[p][0] > 0.5) tip_speed = std::max(tip_speed, solid.velocity[p].norm());
+  }
+  EXPECT_EQ(clamped, 8 * 8);  // 0.05 m x 0.05 m at a particle spacing of dx/2 = 6.25 mm
+  EXPECT_EQ(largest_speed, 0.0);
+  EXPECT_GT(tip_speed, 1e-3);  // while the free end swings
+}
+
+// Stability (issue #3): a neo-Hookean block dropped from 0.5 m onto the floor at the
+// fluid benchmarks' CFL time step: no NaN, no inverted particle, nothing through the floor,
+// and it comes to rest on the floor (about a cell above it: grid contact).
+TEST(SolidSimulationTest, DroppedBlockLandsAndRests) {
+  Simulation<2> sim(load_scene(scene_path("stability/block_drop.json"), {"end_time=1.0"}));
+  double t = 0, min_J = 1;
+  // dt from the CFL rule only (no clamp to the end time): a sudden dt change on a body at
+  // rest starts a small transient (the elastic/ghost-matrix splitting, README), which is
+  // not what this test measures.
+  while (t < 1.0) {
+    const double dt = sim.stable_dt();
+    sim.step(dt);
+    t += dt;
+    min_J = std::min(min_J, double(sim.last_step().solid_min_J));
+  }
+  const auto& solid = sim.solid();
+  double lowest = 1, fastest = 0;
+  for (std::size_t p = 0; p < solid.size(); ++p) {
+    lowest = std::min(lowest, double(solid.position[p][1]));
+    fastest = std::max(fastest, solid.velocity[p].norm());
+    ASSERT_TRUE(solid.deformation_gradient[p].allFinite());
+  }
+  EXPECT_GT(min_J, 0.5);
+  EXPECT_GT(lowest, 0);                   // nothing through the floor
+  EXPECT_LT(lowest, 2.0 * sim.grid().dx); // landed: it started 0.5 m up
+  EXPECT_LT(fastest, 1e-3);               // and rests
+}
+
+// Stability: the cantilever with E = 1e5 Pa sags to large deflection and touches the
+// floor, with both models, at cfl 0.5 and dt_max 0.01 s.
+TEST(SolidSimulationTest, SoftBeamSagsWithoutInversion) {
+  for (const char* model : {"fixed_corotated", "neo_hookean"}) {
+    const RunResult result = run_scene(
+        load_scene(scene_path("stability/soft_beam.json"), {"end_time=1.5", std::string("solids.0.model=") + model}), {});
+    ASSERT_TRUE(result.ok) << model << ": " << result.summary["status"];
+    EXPECT_GT(result.summary["solid_min_J"].get<double>(), 0.3) << model;
+    const auto& last = result.metrics.back();
+    EXPECT_LT(last[2], -0.15) << model;  // tip_dy: large deflection (the beam starts 0.2 m up)
+    EXPECT_EQ(result.summary["wall_clamps"].get<int>(), 0) << model;
+  }
+}
+
+}  // namespace
+}  // namespace iqmpm
