@@ -21,6 +21,7 @@ struct Particles {
   std::vector<Mat<dim>> deformation_gradient;
   std::vector<Real> ghost_J;  // ghost-matrix J_g (method.md §1)
   std::vector<int> body;      // which solid
+  std::vector<Vec<dim>> initial_position;  // solid: where it was seeded (rotation probes)
 
   std::size_t size() const { return position.size(); }
   bool empty() const { return position.empty(); }
@@ -43,6 +44,7 @@ struct Particles {
     apply(deformation_gradient, order);
     apply(ghost_J, order);
     apply(body, order);
+    apply(initial_position, order);
   }
 
  private:

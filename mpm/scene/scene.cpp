@@ -45,7 +45,7 @@ ProbeSpec read_probe(JsonReader& r, int dim, const std::vector<Real>& domain_min
   const bool doc = r.documenting();
   p.type = r.choice("type", std::nullopt,
                     {"front", "water_height", "pressure", "wall_force", "max_speed", "volume", "hydrostatic_pressure_error",
-                     "displacement"},
+                     "displacement", "solid_force", "solid_com", "solid_angle"},
                     "what the probe measures (a metrics.csv column per probe)");
   const std::string default_name = p.type == "front" ? "front_x"
                                    : p.type == "water_height" ? "height_left"
@@ -63,7 +63,14 @@ ProbeSpec read_probe(JsonReader& r, int dim, const std::vector<Real>& domain_min
     p.position = r.number("position", std::nullopt, -kInf, kInf, "water_height: first-axis coordinate of the gauge (m)");
     p.band = r.number("half_width", -1, -1, kInf, "water_height: particles within this distance of the gauge count (m); -1 = one cell. The height is the top of the column connected to the floor (splashes above an empty cell do not count)");
   }
-  if (p.type == "displacement" && !doc) p.axis = r.integer("axis", 0, 0, dim - 1, "");
+  const bool of_solid = p.type == "solid_force" || p.type == "solid_com" || p.type == "solid_angle";
+  if ((p.type == "displacement" || p.type == "solid_force" || p.type == "solid_com") && !doc)
+    p.axis = r.integer("axis", 0, 0, dim - 1, "");
+  if (of_solid || doc)
+    p.solid = r.text("solid", std::nullopt,
+                     "solid_force / solid_com / solid_angle: name of the body (solids[].name). solid_force: force of the fluid "
+                     "on it along axis (interface multipliers, method.md §7; N/m in 2-D); solid_com: its centre of mass along "
+                     "axis (m); solid_angle: its rotation since the start (rad, 2-D, counter-clockwise)");
   if (p.type == "pressure" || p.type == "displacement" || doc)
     p.point = r.vector("point", std::nullopt, dim,
                        "pressure: sample point (m); the mean pressure of the 2^dim dual cells nearest to it (filters the Q1-P0 "
@@ -251,6 +258,20 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
       for (std::size_t j = 0; j < i; ++j)
         if (scene.probes[i].name == scene.probes[j].name)
           throw InputError(fmt::format("scene key 'probes[{}].name' = \"{}\": already used by probes[{}]", i, scene.probes[i].name, j));
+    for (std::size_t i = 0; i < scene.probes.size(); ++i) {
+      if (scene.probes[i].solid.empty()) continue;
+      bool known = false;
+      std::string names;
+      for (const auto& solid : scene.solids) {
+        known = known || solid.name == scene.probes[i].solid;
+        names += (names.empty() ? "" : ", ") + solid.name;
+      }
+      if (!known)
+        throw InputError(fmt::format("scene key 'probes[{}].solid' = \"{}\": no solid of that name; accepted: {}", i,
+                                     scene.probes[i].solid, names.empty() ? "(the scene has no solids)" : names));
+      if (scene.probes[i].type == "solid_angle" && dim != 2)
+        throw InputError(fmt::format("scene key 'probes[{}].type' = \"solid_angle\": 2-D only", i));
+    }
     if (scene.fluid.shapes.empty() && scene.solids.empty())
       throw InputError("scene key 'fluid.shapes': the scene has no material (give at least one fluid shape or a solid in 'solids')");
     for (std::size_t i = 0; i < scene.solids.size(); ++i)

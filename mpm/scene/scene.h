@@ -21,7 +21,7 @@ struct ShapeSpec {
 };
 
 struct ProbeSpec {
-  std::string type;   // front | water_height | pressure | wall_force | max_speed | volume | hydrostatic_pressure_error | displacement
+  std::string type;   // front | water_height | pressure | wall_force | max_speed | volume | hydrostatic_pressure_error | displacement | solid_force | solid_com | solid_angle
   std::string name;   // metrics.csv column
   int axis = 0;               // front: direction of travel; displacement: component
   Real band = -1;             // front: particles below this height count; water_height: half-width (m); -1 = one cell
@@ -29,6 +29,7 @@ struct ProbeSpec {
   std::vector<Real> point;    // pressure; displacement: the material point followed
   int wall_axis = 0, wall_side = 0;  // wall_force
   Real surface = 0;           // hydrostatic_pressure_error: still-water level
+  std::string solid;          // solid_force, solid_com, solid_angle: the body's name
 };
 
 struct FluidSpec {

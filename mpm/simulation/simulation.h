@@ -14,6 +14,7 @@
 #include "core/types.h"
 #include "fluid/fluid_operators.h"
 #include "grid/grid.h"
+#include "interface/interface_quadrature.h"
 #include "linear_solver/linear_solver.h"
 #include "materials/solid_material.h"
 #include "particles/particles.h"
@@ -55,6 +56,16 @@ class Simulation {
   Vec<dim> tracked_displacement(const std::string& probe_name) const;
   // Ghost-matrix pressure of a dual cell from the last solve; 0 where no solid.
   Real ghost_pressure(int dual_cell) const;
+  // Force of the fluid on solid `body` from the last solve (method.md §7): sum of H^sT h
+  // over the body's IQ points (the ghost matrix adds no net force). N/m in 2-D, N in 3-D.
+  Vec<dim> interface_force(int body) const;
+  // Centre of mass of a body, and (2-D) its rotation angle: the least-squares rotation of
+  // its particles about the centre of mass since the start (rad, counter-clockwise).
+  Vec<dim> solid_centre_of_mass(int body) const;
+  Real solid_angle(int body) const;
+  int body_index(const std::string& name) const;
+  int interface_points() const { return iq_points_.size(); }
+  const InterfaceOperators<dim>& interface_operators() const { return iq_ops_; }
   std::vector<Real> solid_particle_pressure() const;
   const SceneSpec& scene() const { return scene_; }
   const StageTimer& timer() const { return timer_; }
@@ -85,6 +96,8 @@ class Simulation {
   void solve_solid_momentum(Real dt);
   void build_fluid_operators();
   void build_solid_operators();
+  void find_interface_quadrature();
+  void build_interface_operators();
   void assemble_pressure_system(Real dt);
   void solve_pressure_system();
   void update_grid_velocities();
@@ -115,6 +128,15 @@ class Simulation {
   std::vector<Vec<dim>> node_velocity_;        // v_s^{n+1}, dense over nodes
   SolidOperators<dim> solid_ops_;
   std::vector<Real> previous_ghost_;           // p_g by dual cell, warm start
+  // Interface quadrature of this step (empty: no coupling this step).
+  InterfacePoints<dim> iq_points_;
+  InterfaceOperators<dim> iq_ops_;
+  Particles<dim> fluid_quadrature_;        // fluid particles (shared mass) + borrowed fluid at IQ points
+  ParticleBins<dim> fluid_quadrature_bins_;
+  std::vector<Real> previous_interface_;   // h by dual cell, warm start
+  int interface_offset_ = -1;
+  const Particles<dim>& quadrature_fluid() const { return iq_points_.empty() ? fluid_ : fluid_quadrature_; }
+  const ParticleBins<dim>& quadrature_bins() const { return iq_points_.empty() ? fluid_bins_ : fluid_quadrature_bins_; }
   // Markers of displacement probes: massless points moved by the solid grid velocity.
   std::vector<std::string> marker_name_;
   std::vector<Vec<dim>> marker_start_, marker_position_;

@@ -83,6 +83,7 @@ void Simulation<dim>::seed_solids() {
       solid_.deformation_gradient.push_back(Mat<dim>::Identity());
       solid_.ghost_J.push_back(1);
       solid_.body.push_back(int(b));
+      solid_.initial_position.push_back(seeded.position[p]);
     }
     if (!spec.clamps.empty()) {
       if (clamped_node_.empty()) clamped_node_.assign(nodes.size(), 0);
@@ -146,10 +147,12 @@ void Simulation<dim>::step(Real dt) {
     throw NumericalFailure(fmt::format("time step {:.3g} s below dt_min {:.3g} s", dt, scene_.dt_min));
   last_.wall_clamps = 0;
   sort_particles();
+  if (has_fluid() && has_solids()) find_interface_quadrature();
   particles_to_grid(dt);
   if (has_solids()) solve_solid_momentum(dt);
   if (has_fluid()) build_fluid_operators();
   if (has_solids()) build_solid_operators();
+  if (!iq_points_.empty()) build_interface_operators();
   assemble_pressure_system(dt);
   solve_pressure_system();
   update_grid_velocities();
@@ -169,7 +172,7 @@ template <int dim>
 void Simulation<dim>::particles_to_grid(Real dt) {
   auto scope = timer_.scope("p2g");
   if (has_fluid()) {
-    fluid_particles_to_grid(grid_, fluid_, fluid_bins_, corner_momentum_);
+    fluid_particles_to_grid(grid_, quadrature_fluid(), quadrature_bins(), corner_momentum_);
     for (std::size_t k = 0; k < corner_momentum_.mass.size(); ++k)
       corner_momentum_.momentum[k] += dt * corner_momentum_.mass[k] * gravity_;
   }
@@ -221,10 +224,28 @@ void Simulation<dim>::build_solid_operators() {
   solid_ops_ = iqmpm::build_solid_operators<dim>(grid_, solid_, solid_bins_, node_momentum_.mass, ghost_stiffness_);
 }
 
+// §3 step 3: IQ points and the fluid quadrature that includes the borrowed fluid.
+template <int dim>
+void Simulation<dim>::find_interface_quadrature() {
+  auto scope = timer_.scope("interface quadrature");
+  iq_points_ = find_interface_points(grid_, fluid_, fluid_bins_, solid_);
+  if (iq_points_.empty()) return;
+  fluid_quadrature_ = fluid_quadrature(grid_, fluid_, solid_, iq_points_);
+  fluid_quadrature_bins_ = sort_particles_by_cell(grid_, fluid_quadrature_);
+}
+
+// §4: H^s and H^f rows, after both materials' dofs are numbered.
+template <int dim>
+void Simulation<dim>::build_interface_operators() {
+  auto scope = timer_.scope("interface quadrature");
+  iq_ops_ = iqmpm::build_interface_operators(grid_, iq_points_, solid_, node_momentum_.mass, solid_ops_.dof_of_node,
+                                             ops_.dof_of_corner, solid_ops_.velocity_dofs() * dim);
+}
+
 template <int dim>
 void Simulation<dim>::build_fluid_operators() {
   auto scope = timer_.scope("fluid operators");
-  ops_ = iqmpm::build_fluid_operators<dim>(grid_, fluid_, fluid_bins_, corner_momentum_, fluid_density_, slip_,
+  ops_ = iqmpm::build_fluid_operators<dim>(grid_, quadrature_fluid(), quadrature_bins(), corner_momentum_, fluid_density_, slip_,
                                                 scene_.fluid.surface_quadrature == "centre");
 }
 
@@ -261,7 +282,7 @@ void Simulation<dim>::assemble_pressure_system(Real dt) {
     }
   }
   system_.reset(inverse_mass);
-  ghost_offset_ = pressure_offset_ = wall_offset_ = -1;
+  ghost_offset_ = pressure_offset_ = wall_offset_ = interface_offset_ = -1;
   if (has_solids()) {
     std::vector<Real> compliance(solid_ops_.pressure_unknowns()), offset(solid_ops_.pressure_unknowns());
     for (int j = 0; j < solid_ops_.pressure_unknowns(); ++j) {
@@ -278,6 +299,10 @@ void Simulation<dim>::assemble_pressure_system(Real dt) {
       wall_offset_ = system_.unknowns();
       system_.add_block("y", int(ops_.wall_faces.size()), ops_.wall_rows, {}, {}, fluid_column_offset_);
     }
+  }
+  if (!iq_points_.empty()) {  // rows H^f v_f - H^s v_s, columns already stacked
+    interface_offset_ = system_.unknowns();
+    system_.add_block("h", iq_ops_.multipliers(), iq_ops_.rows);
   }
   system_.assemble(dt);
   last_.pressure_unknowns = system_.unknowns();
@@ -300,6 +325,8 @@ void Simulation<dim>::solve_pressure_system() {
       auto it = previous_wall_.find({face.dual_cell, face.wall.axis * 2 + face.wall.side});
       if (it != previous_wall_.end()) x[wall_offset_ + f] = it->second;
     }
+  if (interface_offset_ >= 0 && !previous_interface_.empty())
+    for (int j = 0; j < iq_ops_.multipliers(); ++j) x[interface_offset_ + j] = previous_interface_[iq_ops_.cell_of_multiplier[j]];
   auto solver = make_linear_solver(scene_.solver, system_.unknowns(), dim);
   last_.linear = solver->solve(system_.matrix(), rhs, x);
   if (!last_.linear.converged || !x.allFinite())
@@ -317,6 +344,9 @@ void Simulation<dim>::solve_pressure_system() {
     previous_pressure_.assign(grid_.dual_cells().size(), 0);
     for (int i = 0; i < ops_.pressure_unknowns(); ++i) previous_pressure_[ops_.cell_of_pressure[i]] = x[pressure_offset_ + i];
   }
+  previous_interface_.assign(grid_.dual_cells().size(), 0);
+  if (interface_offset_ >= 0)
+    for (int j = 0; j < iq_ops_.multipliers(); ++j) previous_interface_[iq_ops_.cell_of_multiplier[j]] = x[interface_offset_ + j];
   previous_wall_.clear();
   if (wall_offset_ >= 0)
     for (std::size_t f = 0; f < ops_.wall_faces.size(); ++f) {
@@ -494,6 +524,58 @@ std::vector<Real> Simulation<dim>::solid_particle_pressure() const {
     if (cells.contains(c)) out[p] = ghost_pressure(cells.index(c));
   }
   return out;
+}
+
+template <int dim>
+Vec<dim> Simulation<dim>::interface_force(int body) const {
+  Vec<dim> force = Vec<dim>::Zero();
+  if (interface_offset_ < 0) return force;
+  for (int q = 0; q < iq_points_.size(); ++q)
+    if (solid_.body[iq_points_.solid_particle[q]] == body)
+      force += iq_ops_.area[q] * lambda_[interface_offset_ + iq_ops_.row_of_point[q]] * iq_ops_.normal[q];
+  return force;
+}
+
+template <int dim>
+Vec<dim> Simulation<dim>::solid_centre_of_mass(int body) const {
+  Vec<dim> sum = Vec<dim>::Zero();
+  Real mass = 0;
+  for (std::size_t p = 0; p < solid_.size(); ++p)
+    if (solid_.body[p] == body) sum += solid_.mass[p] * solid_.position[p], mass += solid_.mass[p];
+  return sum / mass;
+}
+
+template <int dim>
+Real Simulation<dim>::solid_angle(int body) const {
+  if constexpr (dim != 2) {
+    return std::nan("");
+  } else {
+    Vec<dim> c = Vec<dim>::Zero(), c0 = Vec<dim>::Zero();
+    Real mass = 0;
+    for (std::size_t p = 0; p < solid_.size(); ++p)
+      if (solid_.body[p] == body) {
+        c += solid_.mass[p] * solid_.position[p];
+        c0 += solid_.mass[p] * solid_.initial_position[p];
+        mass += solid_.mass[p];
+      }
+    c /= mass;
+    c0 /= mass;
+    Real cross = 0, dot = 0;  // 2-D Kabsch: the rotation maximising sum m (R r0) . r
+    for (std::size_t p = 0; p < solid_.size(); ++p)
+      if (solid_.body[p] == body) {
+        const Vec<dim> r = solid_.position[p] - c, r0 = solid_.initial_position[p] - c0;
+        cross += solid_.mass[p] * (r0[0] * r[1] - r0[1] * r[0]);
+        dot += solid_.mass[p] * r0.dot(r);
+      }
+    return std::atan2(cross, dot);
+  }
+}
+
+template <int dim>
+int Simulation<dim>::body_index(const std::string& name) const {
+  for (std::size_t b = 0; b < scene_.solids.size(); ++b)
+    if (scene_.solids[b].name == name) return int(b);
+  return -1;
 }
 
 template <int dim>

@@ -1,0 +1,172 @@
+// Interface quadrature (method.md §3 step 3, §4): the points where the free-slip coupling
+// condition (v_f - v_s) . n = 0 is imposed, one multiplier h per dual cell holding them.
+//
+//  * IQ points: solid particles within 0.5 dx of some fluid particle (found through the
+//    particle bins: a neighbour lies in the 3^dim block of dual cells around the particle).
+//  * Borrowed fluid: every fluid particle shares its mass and volume equally among itself
+//    and its solid neighbours, so each IQ point is also a fluid quadrature point carrying
+//    the lent mass, volume, velocity and affine matrix. The fluid corners around the IQ
+//    points then have mass and the fluid velocity there is defined.
+//  * Normal: the normalised gradient of the solid grid mass at the point (into the solid).
+//  * Area: a disk of the particle's current volume: 2 sqrt(V / pi) (a length) in 2-D,
+//    pi r^2 with r = (3 V / 4 pi)^(1/3) in 3-D (the reference code's formula is 2-D only).
+//  * The point is clamped 0.1 dx inside its dual cell so that N0 is unambiguous there.
+#pragma once
+
+#include <Eigen/LU>
+#include <Eigen/SparseCore>
+#include <cmath>
+#include <vector>
+
+#include "core/types.h"
+#include "grid/grid.h"
+#include "grid/kernels.h"
+#include "particles/particles.h"
+
+namespace iqmpm {
+
+template <int dim>
+struct InterfacePoints {
+  std::vector<int> solid_particle;       // IQ point q -> its solid particle
+  std::vector<std::vector<int>> lenders; // fluid particles within 0.5 dx of q
+  std::vector<int> share_count;          // per fluid particle: 1 + number of solid neighbours
+  bool empty() const { return solid_particle.empty(); }
+  int size() const { return int(solid_particle.size()); }
+};
+
+template <int dim>
+InterfacePoints<dim> find_interface_points(const Grid<dim>& grid, const Particles<dim>& fluid,
+                                           const ParticleBins<dim>& fluid_bins, const Particles<dim>& solid) {
+  InterfacePoints<dim> iq;
+  iq.share_count.assign(fluid.size(), 1);
+  if (fluid.empty() || solid.empty()) return iq;
+  const GridLayout<dim> cells = grid.dual_cells();
+  // Exact ties (a regular fluid lattice next to a regular solid one sit exactly dx/2 apart)
+  // count as neighbours.
+  const Real reach2 = std::pow(Real(0.5) * grid.dx * (1 + 1e-9), 2);
+  for (std::size_t s = 0; s < solid.size(); ++s) {
+    const Vec<dim>& xs = solid.position[s];
+    const IVec<dim> home = dual_cell_of<dim>(grid.to_cells(xs));
+    std::vector<int> near;
+    for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
+      const IVec<dim> cell = home + offset - IVec<dim>::Ones();
+      if (!cells.contains(cell)) return;
+      const int k = cells.index(cell);
+      for (int p = fluid_bins.begin(k); p < fluid_bins.end(k); ++p)
+        if ((fluid.position[p] - xs).squaredNorm() <= reach2) near.push_back(p);
+    });
+    if (near.empty()) continue;
+    for (int p : near) ++iq.share_count[p];
+    iq.solid_particle.push_back(int(s));
+    iq.lenders.push_back(std::move(near));
+  }
+  return iq;
+}
+
+// An IQ point moved at least 0.1 dx inside its dual cell (method.md §3 step 3).
+template <int dim>
+Vec<dim> clamped_inside_cell(const Grid<dim>& grid, const Vec<dim>& x) {
+  const Vec<dim> xi = grid.to_cells(x);
+  Vec<dim> out = x;
+  for (int a = 0; a < dim; ++a) {
+    const Real lo = std::floor(xi[a]);
+    const Real f = std::min(std::max(xi[a] - lo, Real(0.1)), Real(0.9));
+    out[a] = grid.origin[a] + (lo + f) * grid.dx;
+  }
+  return out;
+}
+
+// The fluid quadrature of this step: fluid particles with their mass and volume divided by
+// share_count, then one point per IQ point carrying the borrowed fluid. Used for fluid P2G
+// and for M^f and G^f (method.md §3 step 3).
+template <int dim>
+Particles<dim> fluid_quadrature(const Grid<dim>& grid, const Particles<dim>& fluid, const Particles<dim>& solid,
+                                const InterfacePoints<dim>& iq) {
+  Particles<dim> out = fluid;
+  for (std::size_t p = 0; p < fluid.size(); ++p) {
+    out.mass[p] /= iq.share_count[p];
+    out.initial_volume[p] /= iq.share_count[p];
+  }
+  for (int q = 0; q < iq.size(); ++q) {
+    Real mass = 0, volume = 0;
+    Vec<dim> momentum = Vec<dim>::Zero();
+    Mat<dim> affine = Mat<dim>::Zero();
+    const Vec<dim> x = clamped_inside_cell(grid, solid.position[iq.solid_particle[q]]);
+    for (int p : iq.lenders[q]) {
+      const Real share = fluid.mass[p] / iq.share_count[p];
+      mass += share;
+      volume += fluid.initial_volume[p] / iq.share_count[p];
+      // The lender's affine velocity field evaluated at the IQ point.
+      momentum += share * (fluid.velocity[p] + fluid.affine[p] * (x - fluid.position[p]));
+      affine += share * fluid.affine[p];
+    }
+    out.add(x, momentum / mass, mass, volume);
+    out.affine.back() = affine / mass;
+  }
+  return out;
+}
+
+// H^s and H^f rows (method.md §4), one row per dual cell with IQ points:
+//   row j:  sum_q A_q N0_j(x_q) n_q . ( sum_c N1_c(x_q) v_c  -  sum_i N2_i(x_q) v_i ),
+// i.e. H^f v_f - H^s v_s, the normal velocity jump. Columns are in the stacked velocity
+// numbering (solid dofs from 0, fluid dofs from fluid_column_offset).
+template <int dim>
+struct InterfaceOperators {
+  std::vector<int> multiplier_of_cell;  // -1 where no IQ point
+  std::vector<int> cell_of_multiplier;
+  std::vector<int> row_of_point;        // per IQ point: its multiplier
+  std::vector<Vec<dim>> normal;         // per IQ point, into the solid
+  std::vector<Real> area;               // per IQ point
+  std::vector<Eigen::Triplet<Real>> rows;
+
+  int multipliers() const { return int(cell_of_multiplier.size()); }
+};
+
+template <int dim>
+InterfaceOperators<dim> build_interface_operators(const Grid<dim>& grid, const InterfacePoints<dim>& iq,
+                                                  const Particles<dim>& solid, const std::vector<Real>& node_mass,
+                                                  const std::vector<int>& solid_dof_of_node,
+                                                  const std::vector<int>& fluid_dof_of_corner, int fluid_column_offset) {
+  InterfaceOperators<dim> ops;
+  const GridLayout<dim> cells = grid.dual_cells(), nodes = grid.nodes(), corners = grid.corners();
+  ops.multiplier_of_cell.assign(cells.size(), -1);
+  const Real pi = 3.14159265358979323846;
+  for (int q = 0; q < iq.size(); ++q) {
+    const int s = iq.solid_particle[q];
+    const Vec<dim> x = clamped_inside_cell(grid, solid.position[s]);
+    const auto quadratic = quadratic_stencil<dim>(grid.to_cells(x), grid.dx);
+    Vec<dim> mass_gradient = Vec<dim>::Zero();
+    for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
+      mass_gradient += node_mass[nodes.index(quadratic.base + offset)] * quadratic.gradient(offset);
+    });
+    const Real norm = mass_gradient.norm();
+    const Vec<dim> n = norm > 0 ? Vec<dim>(mass_gradient / norm) : Vec<dim>::Zero();
+    const Real volume = solid.initial_volume[s] * solid.deformation_gradient[s].determinant();
+    const Real area = dim == 2 ? 2 * std::sqrt(volume / pi) : pi * std::pow(3 * volume / (4 * pi), Real(2) / 3);
+    const int cell = cells.index(dual_cell_of<dim>(grid.to_cells(x)));
+    int& row = ops.multiplier_of_cell[cell];
+    if (row < 0) {
+      row = ops.multipliers();
+      ops.cell_of_multiplier.push_back(cell);
+    }
+    ops.row_of_point.push_back(row);
+    ops.normal.push_back(n);
+    ops.area.push_back(area);
+    for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
+      const int dof = solid_dof_of_node[nodes.index(quadratic.base + offset)];
+      if (dof < 0) return;
+      const Real w = area * quadratic.weight(offset);
+      for (int a = 0; a < dim; ++a) ops.rows.emplace_back(row, dof * dim + a, -w * n[a]);
+    });
+    const auto linear = linear_stencil<dim>(grid.to_cells(x), grid.dx);
+    for_each_offset<dim, 2>([&](const IVec<dim>& offset) {
+      const int dof = fluid_dof_of_corner[corners.index(linear.base + offset)];
+      if (dof < 0) return;
+      const Real w = area * linear.weight(offset);
+      for (int a = 0; a < dim; ++a) ops.rows.emplace_back(row, fluid_column_offset + dof * dim + a, w * n[a]);
+    });
+  }
+  return ops;
+}
+
+}  // namespace iqmpm
