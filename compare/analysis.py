@@ -265,8 +265,9 @@ def analyse(bench: Benchmark, ours_runs: Sequence[Run], foam_runs: Sequence[Run]
     specs = _metric_specs(bench, ours, foam)
     for spec in specs:
         _series_section(result, spec, base, foam_base, ours, options, out_dir)
-    for sspec in bench.scalars:
-        _scalar_section(result, sspec, base, foam_base)
+    for sspec in bench.scalars:  # every level: the scalars' own convergence shows in the table
+        for i, run in enumerate(ours):
+            _scalar_section(result, sspec, run, foam[i] if i < len(foam) else foam_base)
     for fspec in bench.fields:
         for t in fspec.times:
             _field_section(result, bench, fspec, t, base, foam_base, options, out_dir)
