@@ -54,7 +54,8 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
                                           const ParticleBins<dim>& bins,
                                           const GridMomentum<dim>& corner_momentum, Real density,
                                           const std::array<std::array<bool, 2>, dim>& slip,
-                                          bool surface_cells_at_centre = false) {
+                                          bool surface_cells_at_centre = false,
+                                          const ParticleBins<dim>* real_fluid_bins = nullptr) {
   FluidOperators<dim> ops;
   const GridLayout<dim> corners = grid.corners();
   const GridLayout<dim> cells = grid.dual_cells();
@@ -114,8 +115,22 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
   Real largest_mass = 0;
   for (Real m : corner_mass) largest_mass = std::max(largest_mass, m);
   ops.dof_of_corner.assign(corners.size(), -1);
+  // With interface quadrature (real_fluid_bins given), a corner is a fluid unknown only when
+  // one of its cells holds a real fluid particle: corners reached only by fluid borrowed at
+  // IQ points lie inside the solid, and left free they let the fluid leak through the
+  // per-cell interface constraint (README, coupling notes).
+  auto touches_real_fluid = [&](int k) {
+    if (!real_fluid_bins) return true;
+    const IVec<dim> corner = corners.multi_index(k);
+    bool found = false;
+    for_each_offset<dim, 2>([&](const IVec<dim>& offset) {
+      const IVec<dim> cell = corner - offset;
+      if (cells.contains(cell) && real_fluid_bins->count(cells.index(cell)) > 0) found = true;
+    });
+    return found;
+  };
   for (int k = 0; k < corners.size(); ++k)
-    if (corner_mass[k] > 1e-12 * largest_mass && corner_momentum.mass[k] > 0) {
+    if (corner_mass[k] > 1e-12 * largest_mass && corner_momentum.mass[k] > 0 && touches_real_fluid(k)) {
       ops.dof_of_corner[k] = int(ops.corner_of_dof.size());
       ops.corner_of_dof.push_back(k);
     }

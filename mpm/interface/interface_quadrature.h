@@ -143,6 +143,20 @@ InterfaceOperators<dim> build_interface_operators(const Grid<dim>& grid, const I
     const Vec<dim> n = norm > 0 ? Vec<dim>(mass_gradient / norm) : Vec<dim>::Zero();
     const Real volume = solid.initial_volume[s] * solid.deformation_gradient[s].determinant();
     const Real area = dim == 2 ? 2 * std::sqrt(volume / pi) : pi * std::pow(3 * volume / (4 * pi), Real(2) / 3);
+    // The fluid velocity at the point from the fluid unknowns among its corners, weights
+    // renormalised: corners inside the solid are not fluid unknowns. A point without any
+    // fluid unknown around it imposes nothing (it would give an empty or solid-only row).
+    const auto linear = linear_stencil<dim>(grid.to_cells(x), grid.dx);
+    Real active_weight = 0;
+    for_each_offset<dim, 2>([&](const IVec<dim>& offset) {
+      if (fluid_dof_of_corner[corners.index(linear.base + offset)] >= 0) active_weight += linear.weight(offset);
+    });
+    ops.normal.push_back(n);
+    ops.area.push_back(area);
+    if (!(active_weight > 1e-6) || norm == 0) {
+      ops.row_of_point.push_back(-1);
+      continue;
+    }
     const int cell = cells.index(dual_cell_of<dim>(grid.to_cells(x)));
     int& row = ops.multiplier_of_cell[cell];
     if (row < 0) {
@@ -150,19 +164,16 @@ InterfaceOperators<dim> build_interface_operators(const Grid<dim>& grid, const I
       ops.cell_of_multiplier.push_back(cell);
     }
     ops.row_of_point.push_back(row);
-    ops.normal.push_back(n);
-    ops.area.push_back(area);
     for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
       const int dof = solid_dof_of_node[nodes.index(quadratic.base + offset)];
       if (dof < 0) return;
       const Real w = area * quadratic.weight(offset);
       for (int a = 0; a < dim; ++a) ops.rows.emplace_back(row, dof * dim + a, -w * n[a]);
     });
-    const auto linear = linear_stencil<dim>(grid.to_cells(x), grid.dx);
     for_each_offset<dim, 2>([&](const IVec<dim>& offset) {
       const int dof = fluid_dof_of_corner[corners.index(linear.base + offset)];
       if (dof < 0) return;
-      const Real w = area * linear.weight(offset);
+      const Real w = area * linear.weight(offset) / active_weight;
       for (int a = 0; a < dim; ++a) ops.rows.emplace_back(row, fluid_column_offset + dof * dim + a, w * n[a]);
     });
   }

@@ -219,6 +219,19 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
     }
   }
   {
+    JsonReader coupling = root.object("coupling", "fluid-solid interface (method.md §3 step 3, §4)");
+    scene.coupling.borrowed_fluid = coupling.boolean(
+        "borrowed_fluid", scene.coupling.borrowed_fluid,
+        "fluid particles lend mass and volume to their IQ points, which join the fluid quadrature (the reference "
+        "code's choice); false: IQ points only carry the interface constraint");
+    scene.coupling.interior_fluid_corners = coupling.boolean(
+        "interior_fluid_corners", scene.coupling.interior_fluid_corners,
+        "keep fluid velocity corners reached only by borrowed fluid (inside the solid; method.md). false: drop them "
+        "and impose the interface condition on the remaining corners (no leak, but the fluid momentum is then not "
+        "conserved: an experiment, see README)");
+    coupling.finish();
+  }
+  {
     JsonReader newton = root.object("newton", "projected Newton of the implicit solid step (method.md §3 step 2)");
     auto& o = scene.newton;
     o.relative_tolerance = newton.number("relative_tolerance", o.relative_tolerance, 0, 1, "stop when |gradient| <= this x the first gradient norm of the step", true);

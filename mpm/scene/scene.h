@@ -63,6 +63,12 @@ struct NewtonSpec {
   std::string linear_solver = "auto";  // auto | direct | cg
 };
 
+// Fluid-solid coupling options (method.md §3 step 3).
+struct CouplingSpec {
+  bool borrowed_fluid = true;
+  bool interior_fluid_corners = true;  // false: drop fluid corners that touch no real fluid cell
+};
+
 struct SceneSpec {
   std::string name, description;
   int dim = 2;
@@ -81,6 +87,7 @@ struct SceneSpec {
   FluidSpec fluid;
   std::vector<SolidSpec> solids;
   NewtonSpec newton;
+  CouplingSpec coupling;
   LinearSolverOptions solver;
   std::vector<ProbeSpec> probes;
   Json document;  // the scene as given (after --set), stored in summary.json

@@ -135,8 +135,9 @@ class Simulation {
   ParticleBins<dim> fluid_quadrature_bins_;
   std::vector<Real> previous_interface_;   // h by dual cell, warm start
   int interface_offset_ = -1;
-  const Particles<dim>& quadrature_fluid() const { return iq_points_.empty() ? fluid_ : fluid_quadrature_; }
-  const ParticleBins<dim>& quadrature_bins() const { return iq_points_.empty() ? fluid_bins_ : fluid_quadrature_bins_; }
+  bool borrowing_ = false;  // this step's fluid quadrature includes fluid borrowed at IQ points
+  const Particles<dim>& quadrature_fluid() const { return borrowing_ ? fluid_quadrature_ : fluid_; }
+  const ParticleBins<dim>& quadrature_bins() const { return borrowing_ ? fluid_quadrature_bins_ : fluid_bins_; }
   // Markers of displacement probes: massless points moved by the solid grid velocity.
   std::vector<std::string> marker_name_;
   std::vector<Vec<dim>> marker_start_, marker_position_;

@@ -229,7 +229,8 @@ template <int dim>
 void Simulation<dim>::find_interface_quadrature() {
   auto scope = timer_.scope("interface quadrature");
   iq_points_ = find_interface_points(grid_, fluid_, fluid_bins_, solid_);
-  if (iq_points_.empty()) return;
+  borrowing_ = !iq_points_.empty() && scene_.coupling.borrowed_fluid;
+  if (!borrowing_) return;
   fluid_quadrature_ = fluid_quadrature(grid_, fluid_, solid_, iq_points_);
   fluid_quadrature_bins_ = sort_particles_by_cell(grid_, fluid_quadrature_);
 }
@@ -246,7 +247,8 @@ template <int dim>
 void Simulation<dim>::build_fluid_operators() {
   auto scope = timer_.scope("fluid operators");
   ops_ = iqmpm::build_fluid_operators<dim>(grid_, quadrature_fluid(), quadrature_bins(), corner_momentum_, fluid_density_, slip_,
-                                                scene_.fluid.surface_quadrature == "centre");
+                                                scene_.fluid.surface_quadrature == "centre",
+                                                iq_points_.empty() || scene_.coupling.interior_fluid_corners ? nullptr : &fluid_bins_);
 }
 
 // §5: the stacked velocities are the solid nodes' (v_s*, after Newton) then the fluid
@@ -531,7 +533,7 @@ Vec<dim> Simulation<dim>::interface_force(int body) const {
   Vec<dim> force = Vec<dim>::Zero();
   if (interface_offset_ < 0) return force;
   for (int q = 0; q < iq_points_.size(); ++q)
-    if (solid_.body[iq_points_.solid_particle[q]] == body)
+    if (solid_.body[iq_points_.solid_particle[q]] == body && iq_ops_.row_of_point[q] >= 0)
       force += iq_ops_.area[q] * lambda_[interface_offset_ + iq_ops_.row_of_point[q]] * iq_ops_.normal[q];
   return force;
 }
