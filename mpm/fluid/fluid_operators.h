@@ -61,12 +61,7 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
   const GridLayout<dim> cells = grid.dual_cells();
 
   // Pressure unknowns: dual cells with at least one fluid particle.
-  ops.pressure_of_cell.assign(cells.size(), -1);
-  for (int k = 0; k < cells.size(); ++k)
-    if (bins.count(k) > 0) {
-      ops.pressure_of_cell[k] = int(ops.cell_of_pressure.size());
-      ops.cell_of_pressure.push_back(k);
-    }
+  number_occupied_cells(bins, ops.pressure_of_cell, ops.cell_of_pressure);
 
   // A cell is interior when no neighbour (3^dim block) is an empty cell inside the
   // domain: it is then full of fluid and the exact one-point rule applies (method.md §4).

@@ -72,6 +72,20 @@ struct ParticleBins {
   int slab_end(int last) const { return cell_start[last * layout.slab_size()]; }
 };
 
+// Numbers the dual cells that hold particles (pressure-like unknowns, method.md §2):
+// of_cell[k] = number or -1 for an empty cell; cell_of lists the cells in order.
+template <int dim>
+void number_occupied_cells(const ParticleBins<dim>& bins, std::vector<int>& of_cell, std::vector<int>& cell_of) {
+  const int cells = bins.layout.size();
+  of_cell.assign(cells, -1);
+  cell_of.clear();
+  for (int k = 0; k < cells; ++k)
+    if (bins.count(k) > 0) {
+      of_cell[k] = int(cell_of.size());
+      cell_of.push_back(k);
+    }
+}
+
 // Counting sort of the particles by dual cell; particles must lie inside the domain.
 template <int dim>
 ParticleBins<dim> sort_particles_by_cell(const Grid<dim>& grid, Particles<dim>& particles) {

@@ -517,15 +517,21 @@ Real Simulation<dim>::ghost_pressure(int dual_cell) const {
   return j >= 0 ? lambda_[ghost_offset_ + j] : 0;
 }
 
-template <int dim>
-std::vector<Real> Simulation<dim>::solid_particle_pressure() const {
-  std::vector<Real> out(solid_.size(), 0);
-  const auto cells = grid_.dual_cells();
-  for (std::size_t p = 0; p < solid_.size(); ++p) {
-    const IVec<dim> c = dual_cell_of<dim>(grid_.to_cells(solid_.position[p]));
-    if (cells.contains(c)) out[p] = ghost_pressure(cells.index(c));
+// A dual-cell value at each particle (0 outside the domain).
+template <int dim, class ValueOfCell>
+std::vector<Real> value_at_particles(const Grid<dim>& grid, const Particles<dim>& particles, ValueOfCell value_of_cell) {
+  std::vector<Real> out(particles.size(), 0);
+  const auto cells = grid.dual_cells();
+  for (std::size_t p = 0; p < particles.size(); ++p) {
+    const IVec<dim> c = dual_cell_of<dim>(grid.to_cells(particles.position[p]));
+    if (cells.contains(c)) out[p] = value_of_cell(cells.index(c));
   }
   return out;
+}
+
+template <int dim>
+std::vector<Real> Simulation<dim>::solid_particle_pressure() const {
+  return value_at_particles(grid_, solid_, [&](int cell) { return ghost_pressure(cell); });
 }
 
 template <int dim>
@@ -602,13 +608,7 @@ Real Simulation<dim>::wall_force(int axis, int side) const {
 
 template <int dim>
 std::vector<Real> Simulation<dim>::fluid_particle_pressure() const {
-  std::vector<Real> out(fluid_.size(), 0);
-  const auto cells = grid_.dual_cells();
-  for (std::size_t p = 0; p < fluid_.size(); ++p) {
-    const IVec<dim> c = dual_cell_of<dim>(grid_.to_cells(fluid_.position[p]));
-    if (cells.contains(c)) out[p] = fluid_pressure(cells.index(c));
-  }
-  return out;
+  return value_at_particles(grid_, fluid_, [&](int cell) { return fluid_pressure(cell); });
 }
 
 template <int dim>

@@ -55,12 +55,7 @@ SolidOperators<dim> build_solid_operators(const Grid<dim>& grid, const Particles
       ops.node_of_dof.push_back(k);
     }
 
-  ops.pressure_of_cell.assign(cells.size(), -1);
-  for (int k = 0; k < cells.size(); ++k)
-    if (bins.count(k) > 0) {
-      ops.pressure_of_cell[k] = int(ops.cell_of_pressure.size());
-      ops.cell_of_pressure.push_back(k);
-    }
+  number_occupied_cells(bins, ops.pressure_of_cell, ops.cell_of_pressure);
   const int np = ops.pressure_unknowns();
   ops.compliance.assign(np, 0);
   ops.previous_pressure.assign(np, 0);
