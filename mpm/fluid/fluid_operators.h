@@ -43,6 +43,14 @@ struct FluidOperators {
   std::vector<WallFace<dim>> wall_faces;
   std::vector<Triplet> gradient_transpose;  // rows: pressure unknowns; columns: velocity components
   std::vector<Triplet> wall_rows;           // rows: wall faces; columns: velocity components
+  // G^fT entries of corners that are not fluid unknowns because they lie inside a solid
+  // (interface quadrature without interior fluid corners): (row, corner, coefficients).
+  struct CornerEntry {
+    int row;
+    int corner;
+    Vec<dim> coefficient;
+  };
+  std::vector<CornerEntry> solid_corner_gradient;
 
   int velocity_dofs() const { return int(corner_of_dof.size()); }
   int pressure_unknowns() const { return int(cell_of_pressure.size()); }
@@ -112,8 +120,8 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
   ops.dof_of_corner.assign(corners.size(), -1);
   // With interface quadrature (real_fluid_bins given), a corner is a fluid unknown only when
   // one of its cells holds a real fluid particle: corners reached only by fluid borrowed at
-  // IQ points lie inside the solid, and left free they let the fluid leak through the
-  // per-cell interface constraint (README, coupling notes).
+  // IQ points lie inside the solid; left free they let the fluid leak through the per-cell
+  // interface constraint, so the caller gives them the solid's velocity (README, coupling).
   auto touches_real_fluid = [&](int k) {
     if (!real_fluid_bins) return true;
     const IVec<dim> corner = corners.multi_index(k);
@@ -153,10 +161,13 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
     }
     int corner = 0;
     for_each_offset<dim, 2>([&](const IVec<dim>& offset) {
-      const int dof = ops.dof_of_corner[corners.index(cell + offset)];
+      const int k = corners.index(cell + offset);
+      const int dof = ops.dof_of_corner[k];
       if (dof >= 0)
         for (int a = 0; a < dim; ++a)
           ops.gradient_transpose.emplace_back(row, dof * dim + a, -integral(a, corner));
+      else if (real_fluid_bins)  // a corner inside a solid: its velocity is the solid's (caller maps it)
+        ops.solid_corner_gradient.push_back({row, k, -integral.col(corner)});
       ++corner;
     });
   }

@@ -106,6 +106,19 @@ Particles<dim> fluid_quadrature(const Grid<dim>& grid, const Particles<dim>& flu
   return out;
 }
 
+// Calls f(solid dof, N2 weight) for the solid velocity nodes around fluid corner `corner`.
+template <int dim, class F>
+void for_each_solid_weight(const Grid<dim>& grid, const IVec<dim>& corner, const std::vector<int>& solid_dof_of_node, F&& f) {
+  const GridLayout<dim> nodes = grid.nodes();
+  const auto stencil = quadratic_stencil<dim>(grid.to_cells(grid.corner_position(corner)), grid.dx);
+  for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
+    const IVec<dim> node = stencil.base + offset;
+    if (!nodes.contains(node)) return;
+    const int dof = solid_dof_of_node[nodes.index(node)];
+    if (dof >= 0) f(dof, stencil.weight(offset));
+  });
+}
+
 // H^s and H^f rows (method.md §4), one row per dual cell with IQ points:
 //   row j:  sum_q A_q N0_j(x_q) n_q . ( sum_c N1_c(x_q) v_c  -  sum_i N2_i(x_q) v_i ),
 // i.e. H^f v_f - H^s v_s, the normal velocity jump. Columns are in the stacked velocity
@@ -171,10 +184,17 @@ InterfaceOperators<dim> build_interface_operators(const Grid<dim>& grid, const I
       for (int a = 0; a < dim; ++a) ops.rows.emplace_back(row, dof * dim + a, -w * n[a]);
     });
     for_each_offset<dim, 2>([&](const IVec<dim>& offset) {
-      const int dof = fluid_dof_of_corner[corners.index(linear.base + offset)];
-      if (dof < 0) return;
-      const Real w = area * linear.weight(offset) / active_weight;
-      for (int a = 0; a < dim; ++a) ops.rows.emplace_back(row, fluid_column_offset + dof * dim + a, w * n[a]);
+      const IVec<dim> corner = linear.base + offset;
+      const int dof = fluid_dof_of_corner[corners.index(corner)];
+      const Real w = area * linear.weight(offset);
+      if (dof >= 0) {
+        for (int a = 0; a < dim; ++a) ops.rows.emplace_back(row, fluid_column_offset + dof * dim + a, w * n[a]);
+        return;
+      }
+      // A corner inside the solid moves with it: v_f,c = sum_i N2_i(x_c) v_s,i.
+      for_each_solid_weight(grid, corner, solid_dof_of_node, [&](int solid_dof, Real weight) {
+        for (int a = 0; a < dim; ++a) ops.rows.emplace_back(row, solid_dof * dim + a, w * weight * n[a]);
+      });
     });
   }
   return ops;

@@ -226,9 +226,9 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
         "code's choice); false: IQ points only carry the interface constraint");
     scene.coupling.interior_fluid_corners = coupling.boolean(
         "interior_fluid_corners", scene.coupling.interior_fluid_corners,
-        "keep fluid velocity corners reached only by borrowed fluid (inside the solid; method.md). false: drop them "
-        "and impose the interface condition on the remaining corners (no leak, but the fluid momentum is then not "
-        "conserved: an experiment, see README)");
+        "true: fluid velocity corners reached only by borrowed fluid (inside a solid) stay free unknowns, as "
+        "method.md (measured: fluid leaks into the solid); false: such corners move with the solid (their velocity "
+        "is the N2 interpolation of the solid's), so p_f and h act on the solid there (README, coupling)");
     coupling.finish();
   }
   {

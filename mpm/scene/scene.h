@@ -66,7 +66,7 @@ struct NewtonSpec {
 // Fluid-solid coupling options (method.md §3 step 3).
 struct CouplingSpec {
   bool borrowed_fluid = true;
-  bool interior_fluid_corners = true;  // false: drop fluid corners that touch no real fluid cell
+  bool interior_fluid_corners = false;  // true: keep fluid corners inside solids as free unknowns (method.md)
 };
 
 struct SceneSpec {

@@ -296,7 +296,19 @@ void Simulation<dim>::assemble_pressure_system(Real dt) {
   }
   if (has_fluid()) {
     pressure_offset_ = system_.unknowns();
-    system_.add_block("p_f", ops_.pressure_unknowns(), ops_.gradient_transpose, {}, {}, fluid_column_offset_);
+    if (ops_.solid_corner_gradient.empty()) {
+      system_.add_block("p_f", ops_.pressure_unknowns(), ops_.gradient_transpose, {}, {}, fluid_column_offset_);
+    } else {
+      // Corners inside a solid take the solid's velocity: their G^fT entries act on it.
+      std::vector<Triplet> rows = ops_.gradient_transpose;
+      for (auto& t : rows) t = Triplet(t.row(), t.col() + fluid_column_offset_, t.value());
+      for (const auto& entry : ops_.solid_corner_gradient)
+        for_each_solid_weight(grid_, grid_.corners().multi_index(entry.corner), solid_ops_.dof_of_node,
+                              [&](int dof, Real weight) {
+                                for (int a = 0; a < dim; ++a) rows.emplace_back(entry.row, dof * dim + a, weight * entry.coefficient[a]);
+                              });
+      system_.add_block("p_f", ops_.pressure_unknowns(), rows);
+    }
     if (!ops_.wall_faces.empty()) {
       wall_offset_ = system_.unknowns();
       system_.add_block("y", int(ops_.wall_faces.size()), ops_.wall_rows, {}, {}, fluid_column_offset_);
@@ -536,11 +548,33 @@ std::vector<Real> Simulation<dim>::solid_particle_pressure() const {
 
 template <int dim>
 Vec<dim> Simulation<dim>::interface_force(int body) const {
+  // Force of the fluid on the solid nodes: -D^T lambda over the rows that couple them to the
+  // fluid (h, and p_f where fluid corners inside a solid move with it), method.md §7; the
+  // ghost-matrix rows are internal to the solid. A node shared by bodies is split by their
+  // mass there.
   Vec<dim> force = Vec<dim>::Zero();
-  if (interface_offset_ < 0) return force;
-  for (int q = 0; q < iq_points_.size(); ++q)
-    if (solid_.body[iq_points_.solid_particle[q]] == body && iq_ops_.row_of_point[q] >= 0)
-      force += iq_ops_.area[q] * lambda_[interface_offset_ + iq_ops_.row_of_point[q]] * iq_ops_.normal[q];
+  if (interface_offset_ < 0 || lambda_.size() == 0) return force;
+  Eigen::VectorXd coupling = Eigen::VectorXd::Zero(lambda_.size());
+  coupling.segment(interface_offset_, iq_ops_.multipliers()) = lambda_.segment(interface_offset_, iq_ops_.multipliers());
+  if (!ops_.solid_corner_gradient.empty())
+    coupling.segment(pressure_offset_, ops_.pressure_unknowns()) = lambda_.segment(pressure_offset_, ops_.pressure_unknowns());
+  const Eigen::VectorXd nodal = -(system_.constraint().transpose() * coupling);
+  const GridLayout<dim> nodes = grid_.nodes();
+  std::vector<Real> body_mass(nodes.size(), 0);
+  const bool several = scene_.solids.size() > 1;
+  if (several)
+    for (std::size_t p = 0; p < solid_.size(); ++p) {
+      if (solid_.body[p] != body) continue;
+      const auto stencil = quadratic_stencil<dim>(grid_.to_cells(solid_.position[p]), grid_.dx);
+      for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
+        body_mass[nodes.index(stencil.base + offset)] += stencil.weight(offset) * solid_.mass[p];
+      });
+    }
+  for (int d = 0; d < solid_ops_.velocity_dofs(); ++d) {
+    const int node = solid_ops_.node_of_dof[d];
+    const Real share = several ? body_mass[node] / node_momentum_.mass[node] : 1;
+    for (int a = 0; a < dim; ++a) force[a] += share * nodal[d * dim + a];
+  }
   return force;
 }
 
