@@ -98,6 +98,7 @@ class Simulation {
   void build_solid_operators();
   void find_interface_quadrature();
   void build_interface_operators();
+  void measure_interface_forces();
   void assemble_pressure_system(Real dt);
   void solve_pressure_system();
   void update_grid_velocities();
@@ -135,6 +136,7 @@ class Simulation {
   ParticleBins<dim> fluid_quadrature_bins_;
   std::vector<Real> previous_interface_;   // h by dual cell, warm start
   int interface_offset_ = -1;
+  std::vector<Vec<dim>> interface_force_;  // per body, from the last solve
   bool borrowing_ = false;  // this step's fluid quadrature includes fluid borrowed at IQ points
   const Particles<dim>& quadrature_fluid() const { return borrowing_ ? fluid_quadrature_ : fluid_; }
   const ParticleBins<dim>& quadrature_bins() const { return borrowing_ ? fluid_quadrature_bins_ : fluid_bins_; }

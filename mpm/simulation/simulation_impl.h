@@ -384,6 +384,7 @@ void Simulation<dim>::update_grid_velocities() {
     node_velocity_ = node_velocity_star_;
     for (int d = 0; d < solid_ops_.velocity_dofs(); ++d)
       for (int a = 0; a < dim; ++a) node_velocity_[solid_ops_.node_of_dof[d]][a] = velocity_next_[d * dim + a];
+    measure_interface_forces();
   }
 }
 
@@ -548,34 +549,42 @@ std::vector<Real> Simulation<dim>::solid_particle_pressure() const {
 
 template <int dim>
 Vec<dim> Simulation<dim>::interface_force(int body) const {
-  // Force of the fluid on the solid nodes: -D^T lambda over the rows that couple them to the
-  // fluid (h, and p_f where fluid corners inside a solid move with it), method.md §7; the
-  // ghost-matrix rows are internal to the solid. A node shared by bodies is split by their
-  // mass there.
-  Vec<dim> force = Vec<dim>::Zero();
-  if (interface_offset_ < 0 || lambda_.size() == 0) return force;
+  return body < int(interface_force_.size()) ? interface_force_[body] : Vec<dim>::Zero();
+}
+
+// Force of the fluid on each solid (method.md §7): -D^T lambda on the solid nodes over the
+// rows that couple them to the fluid (h, and p_f where fluid corners inside a solid move with
+// it); the ghost-matrix rows are internal to the solid. A node shared by bodies is split by
+// their mass there. Evaluated once per step, before the particles move, so that the split
+// uses the same particle positions as the node masses.
+template <int dim>
+void Simulation<dim>::measure_interface_forces() {
+  interface_force_.assign(scene_.solids.size(), Vec<dim>::Zero());
+  if (interface_offset_ < 0) return;
   Eigen::VectorXd coupling = Eigen::VectorXd::Zero(lambda_.size());
   coupling.segment(interface_offset_, iq_ops_.multipliers()) = lambda_.segment(interface_offset_, iq_ops_.multipliers());
   if (!ops_.solid_corner_gradient.empty())
     coupling.segment(pressure_offset_, ops_.pressure_unknowns()) = lambda_.segment(pressure_offset_, ops_.pressure_unknowns());
   const Eigen::VectorXd nodal = -(system_.constraint().transpose() * coupling);
   const GridLayout<dim> nodes = grid_.nodes();
-  std::vector<Real> body_mass(nodes.size(), 0);
-  const bool several = scene_.solids.size() > 1;
-  if (several)
+  const int bodies = int(scene_.solids.size());
+  std::vector<std::vector<Real>> body_mass;  // only needed with several bodies
+  if (bodies > 1) {
+    body_mass.assign(bodies, std::vector<Real>(nodes.size(), 0));
     for (std::size_t p = 0; p < solid_.size(); ++p) {
-      if (solid_.body[p] != body) continue;
       const auto stencil = quadratic_stencil<dim>(grid_.to_cells(solid_.position[p]), grid_.dx);
       for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
-        body_mass[nodes.index(stencil.base + offset)] += stencil.weight(offset) * solid_.mass[p];
+        body_mass[solid_.body[p]][nodes.index(stencil.base + offset)] += stencil.weight(offset) * solid_.mass[p];
       });
     }
+  }
   for (int d = 0; d < solid_ops_.velocity_dofs(); ++d) {
     const int node = solid_ops_.node_of_dof[d];
-    const Real share = several ? body_mass[node] / node_momentum_.mass[node] : 1;
-    for (int a = 0; a < dim; ++a) force[a] += share * nodal[d * dim + a];
+    const Vec<dim> f = nodal.template segment<dim>(d * dim);
+    if (bodies == 1) interface_force_[0] += f;
+    else
+      for (int b = 0; b < bodies; ++b) interface_force_[b] += body_mass[b][node] / node_momentum_.mass[node] * f;
   }
-  return force;
 }
 
 template <int dim>
