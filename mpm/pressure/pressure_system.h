@@ -57,6 +57,13 @@ class PressureSystem {
     return int(blocks_.size()) - 1;
   }
 
+  // Adds entries to the rows of an existing block (block-local rows, stacked columns), e.g.
+  // constraint terms on another material's velocities.
+  void add_entries(int block, const std::vector<Eigen::Triplet<Real>>& entries) {
+    const int offset = blocks_[block].offset;
+    for (const auto& t : entries) triplets_.emplace_back(t.row() + offset, t.col(), t.value());
+  }
+
   // Builds D and A = dt D M^-1 D^T + diag(compliance).
   void assemble(Real dt) {
     constraint_.resize(rows_, inverse_mass_.size());

@@ -296,19 +296,14 @@ void Simulation<dim>::assemble_pressure_system(Real dt) {
   }
   if (has_fluid()) {
     pressure_offset_ = system_.unknowns();
-    if (ops_.solid_corner_gradient.empty()) {
-      system_.add_block("p_f", ops_.pressure_unknowns(), ops_.gradient_transpose, {}, {}, fluid_column_offset_);
-    } else {
-      // Corners inside a solid take the solid's velocity: their G^fT entries act on it.
-      std::vector<Triplet> rows = ops_.gradient_transpose;
-      for (auto& t : rows) t = Triplet(t.row(), t.col() + fluid_column_offset_, t.value());
-      for (const auto& entry : ops_.solid_corner_gradient)
-        for_each_solid_weight(grid_, grid_.corners().multi_index(entry.corner), solid_ops_.dof_of_node,
-                              [&](int dof, Real weight) {
-                                for (int a = 0; a < dim; ++a) rows.emplace_back(entry.row, dof * dim + a, weight * entry.coefficient[a]);
-                              });
-      system_.add_block("p_f", ops_.pressure_unknowns(), rows);
-    }
+    const int block = system_.add_block("p_f", ops_.pressure_unknowns(), ops_.gradient_transpose, {}, {}, fluid_column_offset_);
+    // Fluid corners inside a solid take the solid's velocity: their G^fT entries act on it.
+    std::vector<Triplet> on_solid;
+    for (const auto& entry : ops_.solid_corner_gradient)
+      for_each_solid_weight(grid_, grid_.corners().multi_index(entry.corner), solid_ops_.dof_of_node, [&](int dof, Real weight) {
+        for (int a = 0; a < dim; ++a) on_solid.emplace_back(entry.row, dof * dim + a, weight * entry.coefficient[a]);
+      });
+    system_.add_entries(block, on_solid);
     if (!ops_.wall_faces.empty()) {
       wall_offset_ = system_.unknowns();
       system_.add_block("y", int(ops_.wall_faces.size()), ops_.wall_rows, {}, {}, fluid_column_offset_);
