@@ -165,6 +165,8 @@ def reduce_series(t: np.ndarray, y: np.ndarray, reducer: str, tail: float = 0.5)
         return float(s.y[later[0]] if len(later) else s.y[0])
     if reducer == "last":
         return float(s.y[-1])
+    if reducer == "max":
+        return float(np.max(s.y))
     if reducer == "mean_tail":
         start = s.t[-1] - tail * (s.t[-1] - s.t[0])
         return float(np.mean(s.y[s.t >= start]))

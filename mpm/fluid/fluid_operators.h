@@ -57,13 +57,26 @@ struct FluidOperators {
 };
 
 // slip[axis][side] says whether that domain side is a free-slip wall.
+// How the fluid quadrature is laid out near free surfaces and solids.
+template <int dim>
+struct FluidQuadratureOptions {
+  // Surface cells use one point at the cell centre weighted by their particles' volume
+  // (scene key fluid.surface_quadrature = "centre") instead of the particles themselves.
+  bool surface_cells_at_centre = false;
+  // With interface quadrature: the bins of the real fluid particles; corners touching no
+  // real fluid cell lie inside a solid and are left to the caller (it gives them the
+  // solid's velocity).
+  const ParticleBins<dim>* real_fluid_bins = nullptr;
+};
+
 template <int dim>
 FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles<dim>& particles,
                                           const ParticleBins<dim>& bins,
                                           const GridMomentum<dim>& corner_momentum, Real density,
                                           const std::array<std::array<bool, 2>, dim>& slip,
-                                          bool surface_cells_at_centre = false,
-                                          const ParticleBins<dim>* real_fluid_bins = nullptr) {
+                                          const FluidQuadratureOptions<dim>& options = {}) {
+  const bool surface_cells_at_centre = options.surface_cells_at_centre;
+  const ParticleBins<dim>* real_fluid_bins = options.real_fluid_bins;
   FluidOperators<dim> ops;
   const GridLayout<dim> corners = grid.corners();
   const GridLayout<dim> cells = grid.dual_cells();
@@ -92,24 +105,32 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
   const Real cell_volume = grid.cell_volume();
   // Fluid volume held by a cell's particles, capped at the cell volume (surface cells
   // with the one-point rule at the centre, option fluid.surface_quadrature = "centre").
+  // M^f counts a point's mass (volume mass / density): IQ points that only extend the
+  // divergence quadrature (coupling.borrowed_fluid = "volume") have volume but no mass.
   auto cell_fluid_volume = [&](int row) {
     Real volume = 0;
     const int cell_index = ops.cell_of_pressure[row];
     for (int p = bins.begin(cell_index); p < bins.end(cell_index); ++p) volume += particles.initial_volume[p];
     return std::min(volume, cell_volume);
   };
+  auto cell_fluid_mass = [&](int row) {
+    Real mass = 0;
+    const int cell_index = ops.cell_of_pressure[row];
+    for (int p = bins.begin(cell_index); p < bins.end(cell_index); ++p) mass += particles.mass[p];
+    return std::min(mass, density * cell_volume);
+  };
   const Real corner_share = density * cell_volume / Real(1 << dim);
   for (int row = 0; row < np; ++row) {
     const int cell_index = ops.cell_of_pressure[row];
     const IVec<dim> cell = cells.multi_index(cell_index);
     if (ops.interior[row] || surface_cells_at_centre) {
-      const Real share = ops.interior[row] ? corner_share : density * cell_fluid_volume(row) / Real(1 << dim);
+      const Real share = ops.interior[row] ? corner_share : cell_fluid_mass(row) / Real(1 << dim);
       for_each_offset<dim, 2>([&](const IVec<dim>& offset) { corner_mass[corners.index(cell + offset)] += share; });
       continue;
     }
     for (int p = bins.begin(cell_index); p < bins.end(cell_index); ++p) {
       const auto stencil = linear_stencil<dim>(grid.to_cells(particles.position[p]), grid.dx);
-      const Real quadrature_mass = density * particles.initial_volume[p];
+      const Real quadrature_mass = particles.mass[p];
       for_each_offset<dim, 2>([&](const IVec<dim>& offset) {
         corner_mass[corners.index(stencil.base + offset)] += quadrature_mass * stencil.weight(offset);
       });

@@ -51,6 +51,7 @@ class JsonReader {
   void finish() const;
 
   bool documenting() const { return docs_ != nullptr; }
+  std::vector<KeyDoc>* docs() const { return docs_; }
   const std::string& path() const { return path_; }
   std::string key_path(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
 

@@ -71,12 +71,23 @@ ProbeSpec read_probe(JsonReader& r, int dim, const std::vector<Real>& domain_min
                      "solid_force / solid_com / solid_angle: name of the body (solids[].name). solid_force: force of the fluid "
                      "on it along axis (interface multipliers, method.md §7; N/m in 2-D); solid_com: its centre of mass along "
                      "axis (m); solid_angle: its rotation since the start (rad, 2-D, counter-clockwise)");
+  if (p.type == "solid_force" || doc) {
+    for (auto& shape : r.objects("region", "solid_force: count only the material of the body that starts inside these "
+                                           "shapes (e.g. the free part of a clamped gate: per-region force, method.md §7); "
+                                           "omitted: the whole body"))
+      p.region.push_back(read_shape(shape, dim));
+    if (doc) {
+      Json example = {{"type", "box"}};
+      JsonReader shape(example, "probes[].region[]", r.docs());
+      read_shape(shape, dim);
+    }
+  }
   if (p.type == "pressure" || p.type == "displacement" || doc)
     p.point = r.vector("point", std::nullopt, dim,
                        "pressure: sample point (m); the mean pressure of the 2^dim dual cells nearest to it (filters the Q1-P0 "
-                       "checkerboard mode). displacement: the material point of a solid followed (a massless marker moved by "
-                       "the solid's grid velocity, so any point of a body, e.g. the middle of a beam's end face); the column is "
-                       "its displacement along axis (m)");
+                       "checkerboard mode). displacement: the material point of a solid followed (any point of a body within dx "
+                       "of its particles, e.g. the middle of a beam's end face: it moves with its nearest particles' local "
+                       "affine motion x_p + F_p (X - X_p)); the column is its displacement along axis (m)");
   if (p.type == "wall_force" || doc) {
     std::vector<std::string> sides;
     for (int a = 0; a < dim; ++a) sides.insert(sides.end(), {kSideNames[a][0], kSideNames[a][1]});
@@ -220,15 +231,22 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
   }
   {
     JsonReader coupling = root.object("coupling", "fluid-solid interface (method.md §3 step 3, §4)");
-    scene.coupling.borrowed_fluid = coupling.boolean(
-        "borrowed_fluid", scene.coupling.borrowed_fluid,
-        "fluid particles lend mass and volume to their IQ points, which join the fluid quadrature (the reference "
-        "code's choice); false: IQ points only carry the interface constraint");
+    scene.coupling.borrowed_fluid = coupling.choice(
+        "borrowed_fluid", scene.coupling.borrowed_fluid, {"volume", "mass", "none"},
+        "what the IQ points borrow from their fluid neighbours (within 0.5 dx) to join the fluid quadrature: "
+        "volume = a share of their volume, so G^f reaches into the interface cells, but no mass (the fluid keeps "
+        "its weight where it is); mass = mass and volume, the lenders keep the rest (the reference code's choice; "
+        "measured: the lent water is weighed twice next to full cells, buoyancy 3-4 % low); none = IQ points only "
+        "carry the interface constraint");
     scene.coupling.interior_fluid_corners = coupling.boolean(
         "interior_fluid_corners", scene.coupling.interior_fluid_corners,
         "true: fluid velocity corners reached only by borrowed fluid (inside a solid) stay free unknowns, as "
         "method.md (measured: fluid leaks into the solid); false: such corners move with the solid (their velocity "
-        "is the N2 interpolation of the solid's), so p_f and h act on the solid there (README, coupling)");
+        "is the N2 interpolation of the solid's), so p_f and h act on the solid there (README, coupling); true "
+        "needs borrowed_fluid = mass (those corners need the borrowed mass)");
+    if (scene.coupling.interior_fluid_corners && scene.coupling.borrowed_fluid != "mass" && !docs)
+      throw InputError("scene key 'coupling.interior_fluid_corners' = true: needs coupling.borrowed_fluid = \"mass\" "
+                       "(free fluid corners inside a solid have no mass otherwise)");
     coupling.finish();
   }
   {

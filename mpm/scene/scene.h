@@ -30,6 +30,7 @@ struct ProbeSpec {
   int wall_axis = 0, wall_side = 0;  // wall_force
   Real surface = 0;           // hydrostatic_pressure_error: still-water level
   std::string solid;          // solid_force, solid_com, solid_angle: the body's name
+  std::vector<ShapeSpec> region;  // solid_force: only the part of the body that starts in this shape (empty: all)
 };
 
 struct FluidSpec {
@@ -65,7 +66,7 @@ struct NewtonSpec {
 
 // Fluid-solid coupling options (method.md §3 step 3).
 struct CouplingSpec {
-  bool borrowed_fluid = true;
+  std::string borrowed_fluid = "volume";  // volume | mass | none
   bool interior_fluid_corners = false;  // true: keep fluid corners inside solids as free unknowns (method.md)
 };
 

@@ -59,6 +59,8 @@ class Simulation {
   // Force of the fluid on solid `body` from the last solve (method.md §7): sum of H^sT h
   // over the body's IQ points (the ghost matrix adds no net force). N/m in 2-D, N in 3-D.
   Vec<dim> interface_force(int body) const;
+  // The same restricted to the material of a `solid_force` probe's region (by probe name).
+  Vec<dim> region_interface_force(const std::string& probe_name) const;
   // Centre of mass of a body, and (2-D) its rotation angle: the least-squares rotation of
   // its particles about the centre of mass since the start (rad, counter-clockwise).
   Vec<dim> solid_centre_of_mass(int body) const;
@@ -137,12 +139,33 @@ class Simulation {
   std::vector<Real> previous_interface_;   // h by dual cell, warm start
   int interface_offset_ = -1;
   std::vector<Vec<dim>> interface_force_;  // per body, from the last solve
+  // solid_force probes with a region: their body, the region (in the initial configuration:
+  // a particle belongs to it by its initial position, which moves with it when particles are
+  // sorted), the force.
+  struct ForceRegion {
+    std::string probe_name;
+    int body = 0;
+    std::vector<ShapeSpec> region;
+    Vec<dim> force = Vec<dim>::Zero();
+    bool contains(const Particles<dim>& solid, std::size_t p) const {
+      if (solid.body[p] != body) return false;
+      for (const auto& shape : region)
+        if (shape.contains(solid.initial_position[p].data(), dim)) return true;
+      return false;
+    }
+  };
+  std::vector<ForceRegion> force_regions_;
   bool borrowing_ = false;  // this step's fluid quadrature includes fluid borrowed at IQ points
+  bool lend_mass_ = false;  // ... and the borrowed points carry mass (coupling.borrowed_fluid = "mass")
   const Particles<dim>& quadrature_fluid() const { return borrowing_ ? fluid_quadrature_ : fluid_; }
   const ParticleBins<dim>& quadrature_bins() const { return borrowing_ ? fluid_quadrature_bins_ : fluid_bins_; }
-  // Markers of displacement probes: massless points moved by the solid grid velocity.
-  std::vector<std::string> marker_name_;
-  std::vector<Vec<dim>> marker_start_, marker_position_;
+  // Material points followed by displacement probes.
+  struct Marker {
+    std::string name;
+    Vec<dim> start;                  // the material point X (initial position)
+    std::vector<Vec<dim>> carriers;  // initial positions of the particles that carry it
+  };
+  std::vector<Marker> markers_;
   // Offsets of the blocks in the solution vector (-1: absent).
   int ghost_offset_ = -1, pressure_offset_ = -1, wall_offset_ = -1;
   int fluid_column_offset_ = 0;  // solid velocities first, then fluid

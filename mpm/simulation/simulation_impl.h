@@ -116,6 +116,19 @@ void Simulation<dim>::seed_solids() {
   }
   for (std::size_t i = 0; i < scene_.probes.size(); ++i) {
     const ProbeSpec& probe = scene_.probes[i];
+    if (probe.type != "solid_force" || probe.region.empty()) continue;
+    ForceRegion region;
+    region.probe_name = probe.name;
+    region.body = body_index(probe.solid);
+    region.region = probe.region;
+    int count = 0;
+    for (std::size_t p = 0; p < solid_.size(); ++p) count += region.contains(solid_, p);
+    if (count == 0)
+      throw InputError(fmt::format("scene key 'probes[{}].region': holds no particle of solid \"{}\"", i, probe.solid));
+    force_regions_.push_back(std::move(region));
+  }
+  for (std::size_t i = 0; i < scene_.probes.size(); ++i) {
+    const ProbeSpec& probe = scene_.probes[i];
     if (probe.type != "displacement") continue;
     Vec<dim> x;
     for (int a = 0; a < dim; ++a) x[a] = probe.point[a];
@@ -124,9 +137,16 @@ void Simulation<dim>::seed_solids() {
     if (!(nearest <= grid_.dx))
       throw InputError(fmt::format("scene key 'probes[{}].point': a displacement probe must follow a point of a solid; "
                                    "no solid particle lies within dx of it", i));
-    marker_name_.push_back(probe.name);
-    marker_start_.push_back(x);
-    marker_position_.push_back(x);
+    // The point is carried by its nearest particles (all within round-off of the nearest
+    // distance, e.g. the two either side of a beam's centre line): recognised later by their
+    // initial positions, which travel with them when the particles are sorted.
+    Marker marker;
+    marker.name = probe.name;
+    marker.start = x;
+    for (std::size_t p = 0; p < solid_.size(); ++p)
+      if ((solid_.position[p] - x).norm() <= nearest * (1 + 1e-9) + 1e-12 * grid_.dx)
+        marker.carriers.push_back(solid_.initial_position[p]);
+    markers_.push_back(std::move(marker));
   }
 }
 
@@ -172,7 +192,9 @@ template <int dim>
 void Simulation<dim>::particles_to_grid(Real dt) {
   auto scope = timer_.scope("p2g");
   if (has_fluid()) {
-    fluid_particles_to_grid(grid_, quadrature_fluid(), quadrature_bins(), corner_momentum_);
+    // Borrowed mass (coupling.borrowed_fluid = "mass") joins the transfer; borrowed volume does not.
+    if (lend_mass_) fluid_particles_to_grid(grid_, quadrature_fluid(), quadrature_bins(), corner_momentum_);
+    else fluid_particles_to_grid(grid_, fluid_, fluid_bins_, corner_momentum_);
     for (std::size_t k = 0; k < corner_momentum_.mass.size(); ++k)
       corner_momentum_.momentum[k] += dt * corner_momentum_.mass[k] * gravity_;
   }
@@ -229,9 +251,10 @@ template <int dim>
 void Simulation<dim>::find_interface_quadrature() {
   auto scope = timer_.scope("interface quadrature");
   iq_points_ = find_interface_points(grid_, fluid_, fluid_bins_, solid_);
-  borrowing_ = !iq_points_.empty() && scene_.coupling.borrowed_fluid;
+  borrowing_ = !iq_points_.empty() && scene_.coupling.borrowed_fluid != "none";
+  lend_mass_ = borrowing_ && scene_.coupling.borrowed_fluid == "mass";
   if (!borrowing_) return;
-  fluid_quadrature_ = fluid_quadrature(grid_, fluid_, solid_, iq_points_);
+  fluid_quadrature_ = fluid_quadrature(grid_, fluid_, solid_, iq_points_, lend_mass_);
   fluid_quadrature_bins_ = sort_particles_by_cell(grid_, fluid_quadrature_);
 }
 
@@ -246,9 +269,10 @@ void Simulation<dim>::build_interface_operators() {
 template <int dim>
 void Simulation<dim>::build_fluid_operators() {
   auto scope = timer_.scope("fluid operators");
-  ops_ = iqmpm::build_fluid_operators<dim>(grid_, quadrature_fluid(), quadrature_bins(), corner_momentum_, fluid_density_, slip_,
-                                                scene_.fluid.surface_quadrature == "centre",
-                                                iq_points_.empty() || scene_.coupling.interior_fluid_corners ? nullptr : &fluid_bins_);
+  FluidQuadratureOptions<dim> options;
+  options.surface_cells_at_centre = scene_.fluid.surface_quadrature == "centre";
+  if (!iq_points_.empty() && !scene_.coupling.interior_fluid_corners) options.real_fluid_bins = &fluid_bins_;
+  ops_ = iqmpm::build_fluid_operators<dim>(grid_, quadrature_fluid(), quadrature_bins(), corner_momentum_, fluid_density_, slip_, options);
 }
 
 // §5: the stacked velocities are the solid nodes' (v_s*, after Newton) then the fluid
@@ -411,17 +435,6 @@ void Simulation<dim>::grid_to_particles(Real dt) {
   if (!(min_J > 0))
     throw NumericalFailure(fmt::format("a solid particle inverted (det F = {:.3g} <= 0): the step was too large for the "
                                        "solid's stiffness; lower dt_max or cfl", min_J));
-  // Markers move with the solid grid velocity at their position (N2 interpolation).
-  const GridLayout<dim> nodes = grid_.nodes();
-  for (auto& x : marker_position_) {
-    const auto stencil = quadratic_stencil<dim>(grid_.to_cells(x), grid_.dx);
-    Vec<dim> v = Vec<dim>::Zero();
-    for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
-      const IVec<dim> node = stencil.base + offset;
-      if (nodes.contains(node)) v += stencil.weight(offset) * node_velocity_[nodes.index(node)];
-    });
-    x += dt * v;
-  }
   keep_particles_in_domain(solid_, "solid");
 }
 
@@ -461,19 +474,53 @@ void Simulation<dim>::keep_particles_in_domain(Particles<dim>& particles, const 
 // phi_i the particles' volume fraction in cell i; cells next to empty space are only
 // expanded (phi > 1), never compressed, since they may be partly empty. Particles then
 // move by the N1 interpolation of d. The wall rows keep them off the walls.
+// With solids, phi counts the solid particles' current volume too (the reference code
+// does the same), so water crowded against or into a body is spread back out, and a
+// fluid cell's face towards a cell that is at least half solid and holds no fluid gets a
+// wall row (no displacement through it), so the correction never pushes water into a body.
 template <int dim>
 void Simulation<dim>::correct_particle_positions() {
   auto scope = timer_.scope("position correction");
   fluid_bins_ = sort_particles_by_cell(grid_, fluid_);
   fluid_particles_to_grid(grid_, fluid_, fluid_bins_, corner_momentum_);
   const FluidOperators<dim> ops = iqmpm::build_fluid_operators<dim>(grid_, fluid_, fluid_bins_, corner_momentum_,
-                                                                    fluid_density_, slip_, false);
+                                                                    fluid_density_, slip_);
   const int nv = ops.velocity_dofs(), np = ops.pressure_unknowns();
   const Real cell_volume = grid_.cell_volume();
-  std::vector<Real> target(np + ops.wall_faces.size(), 0);
+  const GridLayout<dim> cells = grid_.dual_cells();
+  std::vector<Real> solid_volume(has_solids() ? cells.size() : 0, 0);
+  for (std::size_t p = 0; p < solid_.size(); ++p)
+    solid_volume[cells.index(dual_cell_of<dim>(grid_.to_cells(solid_.position[p])))] +=
+        solid_.initial_volume[p] * solid_.deformation_gradient[p].determinant();
+  // Faces between a fluid cell and a (mostly) solid cell without fluid: no displacement.
+  std::vector<Triplet> solid_face_rows;
+  int solid_faces = 0;
+  if (has_solids()) {
+    const GridLayout<dim> corners = grid_.corners();
+    const Real face_weight = cell_volume / grid_.dx / Real(1 << (dim - 1));
+    for (int i = 0; i < np; ++i) {
+      const IVec<dim> cell = cells.multi_index(ops.cell_of_pressure[i]);
+      for (int axis = 0; axis < dim; ++axis)
+        for (int side = 0; side < 2; ++side) {
+          IVec<dim> neighbour = cell;
+          neighbour[axis] += side == 0 ? -1 : 1;
+          if (!cells.contains(neighbour)) continue;
+          const int k = cells.index(neighbour);
+          if (ops.pressure_of_cell[k] >= 0 || solid_volume[k] < Real(0.5) * cell_volume) continue;
+          const Real normal = side == 0 ? -1 : 1;
+          for_each_offset<dim, 2>([&](const IVec<dim>& offset) {
+            if (offset[axis] != side) return;
+            const int dof = ops.dof_of_corner[corners.index(cell + offset)];
+            if (dof >= 0) solid_face_rows.emplace_back(solid_faces, dof * dim + axis, face_weight * normal);
+          });
+          ++solid_faces;
+        }
+    }
+  }
+  std::vector<Real> target(np + ops.wall_faces.size() + solid_faces, 0);
   for (int i = 0; i < np; ++i) {
     const int cell = ops.cell_of_pressure[i];
-    Real volume = 0;
+    Real volume = solid_volume.empty() ? 0 : solid_volume[cell];
     for (int p = fluid_bins_.begin(cell); p < fluid_bins_.end(cell); ++p) volume += fluid_.initial_volume[p];
     Real excess = volume / cell_volume - 1;
     if (!ops.interior[i]) excess = std::max(excess, Real(0));
@@ -487,6 +534,7 @@ void Simulation<dim>::correct_particle_positions() {
   correction.reset(inverse_mass);
   correction.add_block("p_f", np, ops.gradient_transpose);
   if (!ops.wall_faces.empty()) correction.add_block("y", int(ops.wall_faces.size()), ops.wall_rows);
+  if (solid_faces > 0) correction.add_block("solid faces", solid_faces, solid_face_rows);
   correction.assemble(1);
   // d = 0 - M^-1 D^T q with A q = -target gives D d = target.
   Eigen::VectorXd rhs = -Eigen::Map<const Eigen::VectorXd>(target.data(), Eigen::Index(target.size()));
@@ -549,12 +597,22 @@ Vec<dim> Simulation<dim>::interface_force(int body) const {
 
 // Force of the fluid on each solid (method.md §7): -D^T lambda on the solid nodes over the
 // rows that couple them to the fluid (h, and p_f where fluid corners inside a solid move with
-// it); the ghost-matrix rows are internal to the solid. A node shared by bodies is split by
-// their mass there. Evaluated once per step, before the particles move, so that the split
-// uses the same particle positions as the node masses.
+// it); the ghost-matrix rows are internal to the solid. Each node's force is shared among
+// the particles around it by their mass there (N2 weight x mass / node mass), so that a
+// node shared by bodies, or by a region and the rest of a body, is split consistently.
+// Evaluated once per step, before the particles move, so that the split uses the same
+// particle positions as the node masses.
+template <int dim>
+Vec<dim> Simulation<dim>::region_interface_force(const std::string& probe_name) const {
+  for (const auto& region : force_regions_)
+    if (region.probe_name == probe_name) return region.force;
+  return Vec<dim>::Constant(std::nan(""));
+}
+
 template <int dim>
 void Simulation<dim>::measure_interface_forces() {
   interface_force_.assign(scene_.solids.size(), Vec<dim>::Zero());
+  for (auto& region : force_regions_) region.force.setZero();
   if (interface_offset_ < 0) return;
   Eigen::VectorXd coupling = Eigen::VectorXd::Zero(lambda_.size());
   coupling.segment(interface_offset_, iq_ops_.multipliers()) = lambda_.segment(interface_offset_, iq_ops_.multipliers());
@@ -562,23 +620,18 @@ void Simulation<dim>::measure_interface_forces() {
     coupling.segment(pressure_offset_, ops_.pressure_unknowns()) = lambda_.segment(pressure_offset_, ops_.pressure_unknowns());
   const Eigen::VectorXd nodal = -(system_.constraint().transpose() * coupling);
   const GridLayout<dim> nodes = grid_.nodes();
-  const int bodies = int(scene_.solids.size());
-  std::vector<std::vector<Real>> body_mass;  // only needed with several bodies
-  if (bodies > 1) {
-    body_mass.assign(bodies, std::vector<Real>(nodes.size(), 0));
-    for (std::size_t p = 0; p < solid_.size(); ++p) {
-      const auto stencil = quadratic_stencil<dim>(grid_.to_cells(solid_.position[p]), grid_.dx);
-      for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
-        body_mass[solid_.body[p]][nodes.index(stencil.base + offset)] += stencil.weight(offset) * solid_.mass[p];
-      });
-    }
-  }
-  for (int d = 0; d < solid_ops_.velocity_dofs(); ++d) {
-    const int node = solid_ops_.node_of_dof[d];
-    const Vec<dim> f = nodal.template segment<dim>(d * dim);
-    if (bodies == 1) interface_force_[0] += f;
-    else
-      for (int b = 0; b < bodies; ++b) interface_force_[b] += body_mass[b][node] / node_momentum_.mass[node] * f;
+  std::vector<Vec<dim>> node_force(nodes.size(), Vec<dim>::Zero());
+  for (int d = 0; d < solid_ops_.velocity_dofs(); ++d) node_force[solid_ops_.node_of_dof[d]] = nodal.template segment<dim>(d * dim);
+  for (std::size_t p = 0; p < solid_.size(); ++p) {
+    const auto stencil = quadratic_stencil<dim>(grid_.to_cells(solid_.position[p]), grid_.dx);
+    Vec<dim> share = Vec<dim>::Zero();
+    for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
+      const int node = nodes.index(stencil.base + offset);
+      if (node_momentum_.mass[node] > 0) share += stencil.weight(offset) * solid_.mass[p] / node_momentum_.mass[node] * node_force[node];
+    });
+    interface_force_[solid_.body[p]] += share;
+    for (auto& region : force_regions_)
+      if (region.contains(solid_, p)) region.force += share;
   }
 }
 
@@ -626,8 +679,22 @@ int Simulation<dim>::body_index(const std::string& name) const {
 
 template <int dim>
 Vec<dim> Simulation<dim>::tracked_displacement(const std::string& probe_name) const {
-  for (std::size_t m = 0; m < marker_name_.size(); ++m)
-    if (marker_name_[m] == probe_name) return marker_position_[m] - marker_start_[m];
+  // The material point X moves with its carrier particles' local affine motion,
+  // x = x_p + F_p (X - X_p), averaged over the carriers (exact for an affine motion). A
+  // marker moved by the interpolated grid velocity instead lagged at a body's edge, where
+  // the stencil reaches empty nodes, and fell off a deflecting gate's tip.
+  for (const auto& marker : markers_) {
+    if (marker.name != probe_name) continue;
+    Vec<dim> sum = Vec<dim>::Zero();
+    int found = 0;
+    for (std::size_t p = 0; p < solid_.size(); ++p)
+      for (const auto& X : marker.carriers)
+        if (solid_.initial_position[p] == X) {
+          sum += solid_.position[p] + solid_.deformation_gradient[p] * (marker.start - X);
+          ++found;
+        }
+    return found > 0 ? Vec<dim>(sum / found - marker.start) : Vec<dim>::Constant(std::nan(""));
+  }
   return Vec<dim>::Constant(std::nan(""));
 }
 
