@@ -116,6 +116,8 @@ class Benchmark:
     # (metric column, reference key or "foam") measured in convergence and cost plots
     primary: tuple[str, str] | None = None
     generic: bool = False
+    # in `compare validate` without --benchmark (the README's main job); long runs are not
+    quick: bool = True
 
     def metric(self, column: str) -> MetricSpec | None:
         for spec in self.metrics:
@@ -298,26 +300,59 @@ _register(Benchmark(
     primary=("block_force_y", "buoyancy"),
 ))
 
-_register(Benchmark(
-    name="floating_block",
-    title="Floating block: buoyancy and heave decay",
-    dim=2,
-    foam_case="floating_block",
-    metrics=(
-        MetricSpec("com_y", "m", "block centre height"),
-        MetricSpec("com_x", "m", "block centre x"),
-        MetricSpec("angle", "rad", "block rotation"),
-        MetricSpec("volume", "m^2", "fluid volume", against_foam=False),
-    ),
-    scalars=(
+def _floating(name: str, title: str, equilibrium_com_y: float, roll: bool = False,
+              quick: bool = True) -> Benchmark:
+    scalars = [
         ScalarSpec("equilibrium_com_y", "m", "centre height, mean over last 40 %",
-                   reference=0.504, reference_label="Archimedes", column="com_y",
+                   reference=equilibrium_com_y, reference_label="Archimedes", column="com_y",
                    reducer="mean_tail", tail=0.4),
         ScalarSpec("heave_period", "s", "heave period", column="com_y", reducer="period"),
-        ScalarSpec("volume_drift", "-", "relative volume drift", reference=0.0,
-                   reference_label="0", summary_key="volume_drift"),
+    ]
+    if roll:
+        scalars.append(ScalarSpec("roll_period", "s", "roll period", column="angle", reducer="period"))
+    scalars.append(ScalarSpec("volume_drift", "-", "relative volume drift", reference=0.0,
+                              reference_label="0", summary_key="volume_drift"))
+    return Benchmark(
+        name=name,
+        title=title,
+        dim=2,
+        foam_case=name,
+        metrics=(
+            MetricSpec("com_y", "m", "block centre height"),
+            MetricSpec("com_x", "m", "block centre x"),
+            MetricSpec("angle", "rad", "block rotation"),
+            MetricSpec("volume", "m^2", "fluid volume", against_foam=False),
+        ),
+        scalars=tuple(scalars),
+        primary=("com_y", "foam"),
+        quick=quick,
+    )
+
+
+# Archimedes with the water area 0.494 m^2 of the tank (1 m wide): the still-water level is
+# 0.494 + 0.2 d for a draft d = rho_s / rho_f * 0.1 m, the centre 0.05 m above level - d.
+_register(_floating("floating_block", "Floating block: buoyancy and heave decay", 0.504))
+# The roll and light cases each cost about 2.5 min here and 8 min of interFoam on a fresh
+# machine: named runs only.
+_register(_floating("floating_block_roll", "Floating block released tilted 10 degrees: roll decay", 0.504,
+                    roll=True, quick=False))
+_register(_floating("floating_block_light", "Light floating block (rho_s = 200): heave", 0.528, quick=False))
+
+_register(Benchmark(
+    name="floating_block_3d",
+    title="Floating cube (3-D)",
+    dim=3,
+    foam_case=None,
+    metrics=(MetricSpec("com_y", "m", "cube centre height",
+                        (ConstantReference("archimedes", "Archimedes", 0.5028),)),
+             MetricSpec("block_force_y", "N", "vertical interface force on the cube",
+                        (ConstantReference("weight", "weight", 500 * 0.008 * G),), skip_initial=True)),
+    scalars=(
+        ScalarSpec("equilibrium_com_y", "m", "centre height, mean over last 40 %", reference=0.5028,
+                   reference_label="Archimedes", column="com_y", reducer="mean_tail", tail=0.4),
     ),
-    primary=("com_y", "foam"),
+    primary=("com_y", "archimedes"),
+    quick=False,
 ))
 
 _CANT_E, _CANT_NU, _CANT_L, _CANT_T, _CANT_RHO = 1e8, 0.3, 0.5, 0.05, 1000.0

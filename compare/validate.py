@@ -330,6 +330,12 @@ def validate(s: Settings, progress: Progress | None = None) -> int:
     scenes = discover(s.repo, s.benchmarks)
     if not scenes:
         raise CompareError(f"no benchmarks found in {s.repo / 'benchmarks'}/*/*.json")
+    if not s.benchmarks:  # the quick suite: long benchmarks only when named
+        long = [sc.name for sc in scenes if not lookup(sc.name, sc.folder).quick]
+        scenes = [sc for sc in scenes if lookup(sc.name, sc.folder).quick]
+        if long:
+            progress.line("validate", "plan", f"not in the quick suite (run them with --benchmark NAME): "
+                          f"{', '.join(long)}")
     progress.line("validate", "plan", f"{len(scenes)} benchmark(s): "
                   f"{', '.join(sc.name for sc in scenes)}; levels {s.levels}; jobs {s.jobs}")
     foam_dir = s.repo / "foam_cases"

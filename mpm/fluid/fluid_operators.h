@@ -203,14 +203,18 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
       for (int side = 0; side < 2; ++side) {
         const bool at_wall = side == 0 ? cell[axis] == 0 : cell[axis] == grid.cells[axis] - 1;
         if (!at_wall || !slip[axis][side]) continue;
+        // A face none of whose corners is a fluid unknown (an interface cell whose corners
+        // move with a solid touching the wall) has nothing to constrain: an empty row would
+        // make the system singular.
         const int face_row = int(ops.wall_faces.size());
-        ops.wall_faces.push_back({ops.cell_of_pressure[row], {axis, side}});
         const Real normal = side == 0 ? -1 : 1;
+        const std::size_t before = ops.wall_rows.size();
         for_each_offset<dim, 2>([&](const IVec<dim>& offset) {
           if (offset[axis] != side) return;
           const int dof = ops.dof_of_corner[corners.index(cell + offset)];
           if (dof >= 0) ops.wall_rows.emplace_back(face_row, dof * dim + axis, face_weight * normal);
         });
+        if (ops.wall_rows.size() > before) ops.wall_faces.push_back({ops.cell_of_pressure[row], {axis, side}});
       }
   }
   return ops;

@@ -94,6 +94,17 @@ class DirectSolver final : public LinearSolver {
     configure(factor);
     factor.compute(A);
     if (factor.info() != Eigen::Success) {
+      // A semi-definite system (method.md §5: an enclosed pocket of fluid, or interface rows
+      // that coincide with divergence rows next to a clamped body) can meet an exact zero
+      // pivot. Retry once with a diagonal shift of 1e-12 of the mean diagonal, which selects
+      // one solution of a consistent system; the residual below is of the unshifted system.
+      Sparse shifted = A;
+      const Real shift = 1e-12 * A.diagonal().cwiseAbs().mean();
+      for (int i = 0; i < shifted.rows(); ++i) shifted.coeffRef(i, i) += shift;
+      factor.compute(shifted);
+      stats.shifted = true;
+    }
+    if (factor.info() != Eigen::Success) {
       stats.relative_residual = 1;
       return stats;
     }

@@ -24,6 +24,7 @@ struct LinearSolveStats {
   int iterations = 0;         // CG iterations (0 for a direct solve)
   Real relative_residual = 0;
   bool converged = false;
+  bool shifted = false;       // direct solve: refactorised with a tiny diagonal shift after a zero pivot
 };
 
 class LinearSolver {

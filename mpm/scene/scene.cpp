@@ -71,6 +71,11 @@ ProbeSpec read_probe(JsonReader& r, int dim, const std::vector<Real>& domain_min
                      "solid_force / solid_com / solid_angle: name of the body (solids[].name). solid_force: force of the fluid "
                      "on it along axis (interface multipliers, method.md §7; N/m in 2-D); solid_com: its centre of mass along "
                      "axis (m); solid_angle: its rotation since the start (rad, 2-D, counter-clockwise)");
+  if (p.type == "solid_angle" || doc)
+    p.initial_angle = r.number("initial_angle", 0, -kInf, kInf,
+                               "solid_angle: the body's orientation at t = 0 (rad, counter-clockwise), added to its "
+                               "rotation since the start, so that the column is the absolute angle (e.g. 0.1745 for a "
+                               "block released tilted 10 degrees)");
   if (p.type == "solid_force" || doc) {
     for (auto& shape : r.objects("region", "solid_force: count only the material of the body that starts inside these "
                                            "shapes (e.g. the free part of a clamped gate: per-region force, method.md §7); "

@@ -29,6 +29,7 @@ struct ProbeSpec {
   std::vector<Real> point;    // pressure; displacement: the material point followed
   int wall_axis = 0, wall_side = 0;  // wall_force
   Real surface = 0;           // hydrostatic_pressure_error: still-water level
+  Real initial_angle = 0;     // solid_angle: the body's orientation at t = 0 (rad), added to its rotation
   std::string solid;          // solid_force, solid_com, solid_angle: the body's name
   std::vector<ShapeSpec> region;  // solid_force: only the part of the body that starts in this shape (empty: all)
 };

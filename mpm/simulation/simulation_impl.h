@@ -228,6 +228,15 @@ void Simulation<dim>::solve_solid_momentum(Real dt) {
       if (slip_[a][1] && i[a] >= grid_.cells[a] - 1 && v[a] >= 0) state.fixed_axes[k] |= std::uint8_t(1u << a);
     }
   }
+  // Every node with mass clamped (a fixed obstacle): nothing to solve, v* = 0.
+  bool any_free = false;
+  for (int k = 0; k < nodes.size() && !any_free; ++k) any_free = state.mass[k] > 0 && !(!state.clamped.empty() && state.clamped[k]);
+  if (!any_free) {
+    node_velocity_star_.assign(nodes.size(), Vec<dim>::Zero());
+    last_.newton_iterations = last_.newton_cg_iterations = 0;
+    wall_held_axes_ = std::move(state.fixed_axes);
+    return;
+  }
   const SolidIncrementalPotential<dim, SolidMaterial<dim>> potential(grid_, solid_, materials_, solid_.body, state, dt);
   auto v = potential.initial_velocity();
   const NewtonResult result = minimize_projected_newton(potential, v, newton_options_);

@@ -122,3 +122,20 @@ def test_validate_unknown_benchmark_is_a_clear_error(tmp_path, capsys):
     repo = _repo(tmp_path)
     assert _validate(repo, tmp_path, "--benchmark", "nosuch") == 2
     assert "unknown benchmark(s): nosuch" in capsys.readouterr().err
+
+
+def test_quick_suite_leaves_long_benchmarks_to_named_runs(tmp_path, capsys, monkeypatch):
+    # floating_block_3d is registered with quick=False: a plain `validate` (the README's
+    # main job) lists it as skipped and does not run it; naming it runs it.
+    monkeypatch.setenv("FAKE_FOAM_CALLS", str(tmp_path / "calls.txt"))
+    repo = _repo(tmp_path)
+    (repo / "benchmarks" / "broken" / "broken.json").unlink()
+    (repo / "benchmarks" / "floating_block_3d").mkdir()
+    (repo / "benchmarks" / "floating_block_3d" / "floating_block_3d.json").write_text(
+        json.dumps({"dx": 0.04}))
+    _validate(repo, tmp_path)
+    out = capsys.readouterr().out
+    assert "not in the quick suite (run them with --benchmark NAME): floating_block_3d" in out
+    assert "floating_block_3d | IQ-MPM level 1" not in out
+    _validate(repo, tmp_path, "--benchmark", "floating_block_3d")
+    assert "floating_block_3d | IQ-MPM level 1 | started" in capsys.readouterr().out

@@ -419,5 +419,43 @@ TEST(ProjectedNewton, LineSearchRejectsNonFiniteTrials) {
     EXPECT_LE(result.energies[k], result.energies[k - 1]) << "energy increased at iteration " << k;
 }
 
+// A gradient with a round-off floor: E = C + x^2 / 2 + f |x| with a large constant C, so
+// that the energy cannot tell the iterates apart (its round-off, 1e-8, exceeds f^2), and
+// g = x + f sign(x): the Newton step of the smooth part overshoots to -f sign(x) and the
+// iterates flip between +-f with |g| = 2f, as the elastic gate's Newton did at dt = 1e-4 s.
+// Just above the tolerance (within stall_factor) that counts as converged, flagged as the
+// round-off floor; far above it does not.
+struct FlooredPotential {
+  using SparseMatrix = Eigen::SparseMatrix<Real, Eigen::RowMajor, int>;
+  Real floor = 1.5e-9;
+  Real energy(const Vector& x) const { return 1e8 + 0.5 * x.squaredNorm() + floor * x.cwiseAbs().sum(); }
+  Vector gradient(const Vector& x) const {
+    Vector g = x;
+    for (int i = 0; i < x.size(); ++i) g[i] += x[i] >= 0 ? floor : -floor;
+    return g;
+  }
+  SparseMatrix hessian(const Vector& x, bool) const {
+    SparseMatrix H(x.size(), x.size());
+    for (int i = 0; i < x.size(); ++i) H.insert(i, i) = 1;
+    return H;
+  }
+  Real gradient_scale() const { return 1; }
+};
+
+TEST(ProjectedNewton, StopsAtTheRoundoffFloorJustAboveTheTolerance) {
+  ProjectedNewtonOptions options;
+  options.absolute_tolerance = 0;
+  options.relative_tolerance = 2.4e-9;  // |g_0| = 1: tolerance 2.4e-9, |g| stuck at 3e-9
+  Vector x = Vector::Constant(1, 1 - 1.5e-9);
+  const NewtonResult near = minimize_projected_newton(FlooredPotential{}, x, options);
+  EXPECT_TRUE(near.converged) << near.summary();
+  EXPECT_TRUE(near.roundoff_floor);
+  EXPECT_LT(near.iterations, 5);
+  options.relative_tolerance = 1e-12;  // the floor is 3000 times the tolerance: not converged
+  x = Vector::Constant(1, 1 - 1.5e-9);
+  const NewtonResult far = minimize_projected_newton(FlooredPotential{}, x, options);
+  EXPECT_FALSE(far.converged) << far.summary();
+}
+
 }  // namespace
 }  // namespace iqmpm
