@@ -268,37 +268,30 @@ _register(Benchmark(
     primary=("gate_tip_dx", "experiment_x"),
 ))
 
-_register(Benchmark(
-    name="submerged_plate",
-    title="Hydrostatic force on a stiff gate (plate variant of submerged_block)",
-    dim=2,
-    foam_case=None,
-    metrics=(MetricSpec("gate_force_x", FORCE_2D, "horizontal force on the gate's free part",
-                        (ConstantReference("hydrostatic", "hydrostatic integral", 77.9),),
-                        skip_initial=True),),
-    scalars=(
-        ScalarSpec("gate_force_x_mean", FORCE_2D, "force on the free part, mean over the last 60 %",
-                   reference=77.9, reference_label="hydrostatic integral",
-                   column="gate_force_x", reducer="mean_tail", tail=0.6),
-    ),
-    primary=("gate_force_x", "hydrostatic"),
-))
 
-_register(Benchmark(
-    name="submerged_block",
-    title="Interface force at rest on a clamped block",
-    dim=2,
-    foam_case=None,
-    metrics=(MetricSpec("block_force_y", FORCE_2D, "vertical interface force on the block",
-                        (ConstantReference("buoyancy", "rho g V", RHO_F * G * 0.02),),
-                        skip_initial=True),),
-    scalars=(
-        ScalarSpec("block_force_y_mean", FORCE_2D, "vertical force, mean over 2nd half",
-                   reference=RHO_F * G * 0.02, reference_label="rho g V",
-                   column="block_force_y", reducer="mean_tail", tail=0.5),
-    ),
-    primary=("block_force_y", "buoyancy"),
-))
+def _force_at_rest(name: str, title: str, column: str, what: str, reference: float, label: str,
+                   tail: float) -> Benchmark:
+    """A body held in water at rest: an interface-force series against a constant."""
+    return Benchmark(
+        name=name,
+        title=title,
+        dim=2,
+        foam_case=None,
+        metrics=(MetricSpec(column, FORCE_2D, what, (ConstantReference("hydrostatic", label, reference),),
+                            skip_initial=True),),
+        scalars=(ScalarSpec(f"{column}_mean", FORCE_2D, f"{what}, mean over the last {100 * tail:.0f} %",
+                            reference=reference, reference_label=label, column=column,
+                            reducer="mean_tail", tail=tail),),
+        primary=(column, "hydrostatic"),
+    )
+
+
+_register(_force_at_rest("submerged_plate", "Hydrostatic force on a stiff gate (plate variant of submerged_block)",
+                         "gate_force_x", "horizontal force on the gate's free part", 77.9,
+                         "hydrostatic integral", 0.6))
+_register(_force_at_rest("submerged_block", "Interface force at rest on a clamped block", "block_force_y",
+                         "vertical interface force on the block", RHO_F * G * 0.02, "rho g V", 0.5))
+
 
 def _floating(name: str, title: str, equilibrium_com_y: float, roll: bool = False,
               quick: bool = True) -> Benchmark:
@@ -352,6 +345,17 @@ _register(Benchmark(
                    reference_label="Archimedes", column="com_y", reducer="mean_tail", tail=0.4),
     ),
     primary=("com_y", "archimedes"),
+    quick=False,
+))
+
+_register(Benchmark(
+    name="elastic_sphere",
+    title="Soft ball dropped into water (3-D stress test, no reference)",
+    dim=3,
+    foam_case=None,
+    metrics=(MetricSpec("com_y", "m", "ball centre height"),
+             MetricSpec("ball_force_y", "N", "vertical interface force on the ball", skip_initial=True),
+             MetricSpec("max_speed", "m/s", "largest particle speed")),
     quick=False,
 ))
 
