@@ -56,7 +56,6 @@ struct FluidOperators {
   int pressure_unknowns() const { return int(cell_of_pressure.size()); }
 };
 
-// slip[axis][side] says whether that domain side is a free-slip wall.
 // How the fluid quadrature is laid out near free surfaces and solids.
 template <int dim>
 struct FluidQuadratureOptions {
@@ -69,6 +68,7 @@ struct FluidQuadratureOptions {
   const ParticleBins<dim>* real_fluid_bins = nullptr;
 };
 
+// slip[axis][side] says whether that domain side is a free-slip wall.
 template <int dim>
 FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles<dim>& particles,
                                           const ParticleBins<dim>& bins,
@@ -105,7 +105,7 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
   const Real cell_volume = grid.cell_volume();
   // Fluid volume held by a cell's particles, capped at the cell volume (surface cells
   // with the one-point rule at the centre, option fluid.surface_quadrature = "centre").
-  // M^f counts a point's mass (volume mass / density): IQ points that only extend the
+  // M^f counts the points' mass, G^f their volume: IQ points that only extend the
   // divergence quadrature (coupling.borrowed_fluid = "volume") have volume but no mass.
   auto cell_fluid_volume = [&](int row) {
     Real volume = 0;

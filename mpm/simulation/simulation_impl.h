@@ -230,7 +230,10 @@ void Simulation<dim>::solve_solid_momentum(Real dt) {
   }
   // Every node with mass clamped (a fixed obstacle): nothing to solve, v* = 0.
   bool any_free = false;
-  for (int k = 0; k < nodes.size() && !any_free; ++k) any_free = state.mass[k] > 0 && !(!state.clamped.empty() && state.clamped[k]);
+  for (int k = 0; k < nodes.size() && !any_free; ++k) {
+    const bool clamped = !state.clamped.empty() && state.clamped[k];
+    any_free = state.mass[k] > 0 && !clamped;
+  }
   if (!any_free) {
     node_velocity_star_.assign(nodes.size(), Vec<dim>::Zero());
     last_.newton_iterations = last_.newton_cg_iterations = 0;
@@ -517,12 +520,13 @@ void Simulation<dim>::correct_particle_positions() {
           const int k = cells.index(neighbour);
           if (ops.pressure_of_cell[k] >= 0 || solid_volume[k] < Real(0.5) * cell_volume) continue;
           const Real normal = side == 0 ? -1 : 1;
+          const std::size_t before = solid_face_rows.size();
           for_each_offset<dim, 2>([&](const IVec<dim>& offset) {
             if (offset[axis] != side) return;
             const int dof = ops.dof_of_corner[corners.index(cell + offset)];
             if (dof >= 0) solid_face_rows.emplace_back(solid_faces, dof * dim + axis, face_weight * normal);
           });
-          ++solid_faces;
+          if (solid_face_rows.size() > before) ++solid_faces;  // an empty row would be singular
         }
     }
   }
