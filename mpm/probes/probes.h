@@ -26,19 +26,26 @@ Real evaluate_probe(const Simulation<dim>& sim, const ProbeSpec& probe) {
     return std::isfinite(front) ? front + half_spacing : std::nan("");
   }
   if (probe.type == "water_height") {
-    // Top of the water column connected to the floor at the gauge: splashes and drops above
+    // Top of the water column connected to the floor at a gauge: splashes and drops above
     // an empty cell do not count.
-    const Real half_width = probe.band < 0 ? grid.dx : probe.band;
-    const int rows = grid.cells[up];
-    std::vector<Real> row_top(rows, -std::numeric_limits<Real>::infinity());
-    for (const auto& x : fluid.position)
-      if (std::abs(x[0] - probe.position) <= half_width) {
-        const int row = std::min(rows - 1, std::max(0, int(std::floor((x[up] - grid.origin[up]) / grid.dx))));
-        row_top[row] = std::max(row_top[row], x[up]);
-      }
-    Real top = -std::numeric_limits<Real>::infinity();
-    for (int row = 0; row < rows && std::isfinite(row_top[row]); ++row) top = row_top[row];
-    return std::isfinite(top) ? top + half_spacing - grid.origin[up] : 0;
+    auto height_at = [&](Real gauge, Real half_width) {
+      const int rows = grid.cells[up];
+      std::vector<Real> row_top(rows, -std::numeric_limits<Real>::infinity());
+      for (const auto& x : fluid.position)
+        if (std::abs(x[0] - gauge) <= half_width) {
+          const int row = std::min(rows - 1, std::max(0, int(std::floor((x[up] - grid.origin[up]) / grid.dx))));
+          row_top[row] = std::max(row_top[row], x[up]);
+        }
+      Real top = -std::numeric_limits<Real>::infinity();
+      for (int row = 0; row < rows && std::isfinite(row_top[row]); ++row) top = row_top[row];
+      return std::isfinite(top) ? top + half_spacing - grid.origin[up] : Real(0);
+    };
+    if (probe.position_to == kNoRange) return height_at(probe.position, probe.band < 0 ? grid.dx : probe.band);
+    Real sum = 0;
+    int gauges = 0;
+    for (Real gauge = probe.position; gauge <= probe.position_to + 1e-9 * grid.dx; gauge += grid.dx, ++gauges)
+      sum += height_at(gauge, Real(0.5) * grid.dx);
+    return sum / gauges;
   }
   if (probe.type == "pressure") {
     // Mean of the 2^dim dual cells nearest the point (their centres bracket it, shifted

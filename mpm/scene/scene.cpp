@@ -62,6 +62,11 @@ ProbeSpec read_probe(JsonReader& r, int dim, const std::vector<Real>& domain_min
   if (p.type == "water_height" || doc) {
     p.position = r.number("position", std::nullopt, -kInf, kInf, "water_height: first-axis coordinate of the gauge (m)");
     p.band = r.number("half_width", -1, -1, kInf, "water_height: particles within this distance of the gauge count (m); -1 = one cell. The height is the top of the column connected to the floor (splashes above an empty cell do not count)");
+    p.position_to = r.number("to", kNoRange, -kInf, kInf,
+                             "water_height: when given, the column is the mean of gauges every dx from position to this "
+                             "coordinate, each over half a cell either side (a still-water level that waves do not bias)");
+    if (!doc && p.position_to != kNoRange && p.position_to < p.position)
+      throw InputError(fmt::format("scene key '{}.to': must not be below position ({} m)", r.path(), p.position));
   }
   const bool of_solid = p.type == "solid_force" || p.type == "solid_com" || p.type == "solid_angle";
   if ((p.type == "displacement" || p.type == "solid_force" || p.type == "solid_com") && !doc)

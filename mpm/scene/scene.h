@@ -20,12 +20,15 @@ struct ShapeSpec {
   bool contains(const Real* x, int dim) const;
 };
 
+inline constexpr Real kNoRange = -1e300;  // an unset optional coordinate
+
 struct ProbeSpec {
   std::string type;   // front | water_height | pressure | wall_force | max_speed | volume | hydrostatic_pressure_error | displacement | solid_force | solid_com | solid_angle
   std::string name;   // metrics.csv column
   int axis = 0;               // front: direction of travel; displacement: component
   Real band = -1;             // front: particles below this height count; water_height: half-width (m); -1 = one cell
   Real position = 0;          // water_height: coordinate along the first axis
+  Real position_to = kNoRange;  // water_height: mean over gauges every dx from position to here
   std::vector<Real> point;    // pressure; displacement: the material point followed
   int wall_axis = 0, wall_side = 0;  // wall_force
   Real surface = 0;           // hydrostatic_pressure_error: still-water level
