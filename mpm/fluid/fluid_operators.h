@@ -66,6 +66,10 @@ struct FluidQuadratureOptions {
   // real fluid cell lie inside a solid and are left to the caller (it gives them the
   // solid's velocity).
   const ParticleBins<dim>* real_fluid_bins = nullptr;
+  // Massless points that extend G^f (and the pressure unknowns) into the interface cells:
+  // the IQ points' borrowed volume (coupling.borrowed_fluid = "volume"), with their bins.
+  const Particles<dim>* volume_points = nullptr;
+  const ParticleBins<dim>* volume_point_bins = nullptr;
 };
 
 // slip[axis][side] says whether that domain side is a free-slip wall.
@@ -81,8 +85,23 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
   const GridLayout<dim> corners = grid.corners();
   const GridLayout<dim> cells = grid.dual_cells();
 
-  // Pressure unknowns: dual cells with at least one fluid particle.
-  number_occupied_cells(bins, ops.pressure_of_cell, ops.cell_of_pressure);
+  // Quadrature points of a cell: the particles, then the massless volume points if any.
+  const Particles<dim>* extra = options.volume_points;
+  const ParticleBins<dim>* extra_bins = options.volume_point_bins;
+  auto points_in = [&](int k) { return bins.count(k) + (extra ? extra_bins->count(k) : 0); };
+  auto for_each_volume_point = [&](int k, auto&& f) {  // f(position, volume)
+    for (int p = bins.begin(k); p < bins.end(k); ++p) f(particles.position[p], particles.initial_volume[p]);
+    if (extra)
+      for (int p = extra_bins->begin(k); p < extra_bins->end(k); ++p) f(extra->position[p], extra->initial_volume[p]);
+  };
+
+  // Pressure unknowns: dual cells with at least one quadrature point.
+  ops.pressure_of_cell.assign(cells.size(), -1);
+  for (int k = 0; k < cells.size(); ++k)
+    if (points_in(k) > 0) {
+      ops.pressure_of_cell[k] = int(ops.cell_of_pressure.size());
+      ops.cell_of_pressure.push_back(k);
+    }
 
   // A cell is interior when no neighbour (3^dim block) is an empty cell inside the
   // domain: it is then full of fluid and the exact one-point rule applies (method.md §4).
@@ -93,7 +112,7 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
     bool interior = true;
     for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
       const IVec<dim> neighbour = cell + offset - IVec<dim>::Ones();
-      if (cells.contains(neighbour) && bins.count(cells.index(neighbour)) == 0) interior = false;
+      if (cells.contains(neighbour) && points_in(cells.index(neighbour)) == 0) interior = false;
     });
     ops.interior[row] = interior;
   }
@@ -110,7 +129,7 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
   auto cell_fluid_volume = [&](int row) {
     Real volume = 0;
     const int cell_index = ops.cell_of_pressure[row];
-    for (int p = bins.begin(cell_index); p < bins.end(cell_index); ++p) volume += particles.initial_volume[p];
+    for_each_volume_point(cell_index, [&](const Vec<dim>&, Real v) { volume += v; });
     return std::min(volume, cell_volume);
   };
   auto cell_fluid_mass = [&](int row) {
@@ -177,8 +196,7 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
     } else if (surface_cells_at_centre) {
       accumulate(grid.dual_cell_centre(cell), cell_fluid_volume(row));
     } else {
-      for (int p = bins.begin(cell_index); p < bins.end(cell_index); ++p)
-        accumulate(particles.position[p], particles.initial_volume[p]);
+      for_each_volume_point(cell_index, accumulate);
     }
     int corner = 0;
     for_each_offset<dim, 2>([&](const IVec<dim>& offset) {

@@ -3,10 +3,12 @@
 //
 //  * IQ points: solid particles within 0.5 dx of some fluid particle (found through the
 //    particle bins: a neighbour lies in the 3^dim block of dual cells around the particle).
-//  * Borrowed fluid: every fluid particle shares its mass and volume equally among itself
-//    and its solid neighbours, so each IQ point is also a fluid quadrature point carrying
-//    the lent mass, volume, velocity and affine matrix. The fluid corners around the IQ
-//    points then have mass and the fluid velocity there is defined.
+//  * Borrowed fluid: every fluid particle shares its volume equally among itself and its
+//    solid neighbours, so each IQ point is also a fluid quadrature point of G^f: the
+//    divergence constraint reaches into the interface cells. By default only the volume is
+//    borrowed and the fluid keeps its mass (coupling.borrowed_fluid = "volume"); the
+//    reference code lends the mass too ("mass"), which weighs the lent water twice next to
+//    full cells (README, coupling).
 //  * Normal: the normalised gradient of the solid grid mass at the point (into the solid).
 //  * Area: a disk of the particle's current volume: 2 sqrt(V / pi) (a length) in 2-D,
 //    pi r^2 with r = (3 V / 4 pi)^(1/3) in 3-D (the reference code's formula is 2-D only).
@@ -76,24 +78,14 @@ Vec<dim> clamped_inside_cell(const Grid<dim>& grid, const Vec<dim>& x) {
   return out;
 }
 
-// The fluid quadrature of this step: fluid particles with their mass and volume divided by
-// share_count, then one point per IQ point carrying the borrowed fluid. Used for fluid P2G
-// and for M^f and G^f (method.md §3 step 3).
-//
-// lend_mass = false (coupling.borrowed_fluid = "volume"): the fluid particles keep all their
-// mass and volume and the IQ points carry only the volume share (zero mass): they extend
-// the divergence quadrature G^f into the interface cells without adding weight. Lent mass
-// is counted twice where the lender's cell uses the exact full-cell rule, which made the
-// submerged block's buoyancy 3-4 % low (README, coupling).
+// One fluid quadrature point per IQ point, carrying the volume its lenders share with it
+// and the lenders' velocity and affine field there; its mass is the lent mass when
+// with_mass (coupling.borrowed_fluid = "mass"), else zero: a pure G^f point that adds no
+// weight.
 template <int dim>
-Particles<dim> fluid_quadrature(const Grid<dim>& grid, const Particles<dim>& fluid, const Particles<dim>& solid,
-                                const InterfacePoints<dim>& iq, bool lend_mass = true) {
-  Particles<dim> out = fluid;
-  if (lend_mass)
-    for (std::size_t p = 0; p < fluid.size(); ++p) {
-      out.mass[p] /= iq.share_count[p];
-      out.initial_volume[p] /= iq.share_count[p];
-    }
+Particles<dim> borrowed_fluid_points(const Grid<dim>& grid, const Particles<dim>& fluid, const Particles<dim>& solid,
+                                     const InterfacePoints<dim>& iq, bool with_mass) {
+  Particles<dim> out;
   for (int q = 0; q < iq.size(); ++q) {
     Real mass = 0, volume = 0;
     Vec<dim> momentum = Vec<dim>::Zero();
@@ -107,8 +99,27 @@ Particles<dim> fluid_quadrature(const Grid<dim>& grid, const Particles<dim>& flu
       momentum += share * (fluid.velocity[p] + fluid.affine[p] * (x - fluid.position[p]));
       affine += share * fluid.affine[p];
     }
-    out.add(x, momentum / mass, lend_mass ? mass : Real(0), volume);
+    out.add(x, momentum / mass, with_mass ? mass : Real(0), volume);
     out.affine.back() = affine / mass;
+  }
+  return out;
+}
+
+// The reference code's quadrature (coupling.borrowed_fluid = "mass"): the fluid particles
+// with their mass and volume divided by share_count, then the borrowed points with the
+// lent mass. Used for the fluid P2G, M^f and G^f.
+template <int dim>
+Particles<dim> fluid_quadrature_lending_mass(const Grid<dim>& grid, const Particles<dim>& fluid,
+                                             const Particles<dim>& solid, const InterfacePoints<dim>& iq) {
+  Particles<dim> out = fluid;
+  for (std::size_t p = 0; p < fluid.size(); ++p) {
+    out.mass[p] /= iq.share_count[p];
+    out.initial_volume[p] /= iq.share_count[p];
+  }
+  const Particles<dim> borrowed = borrowed_fluid_points(grid, fluid, solid, iq, true);
+  for (std::size_t q = 0; q < borrowed.size(); ++q) {
+    out.add(borrowed.position[q], borrowed.velocity[q], borrowed.mass[q], borrowed.initial_volume[q]);
+    out.affine.back() = borrowed.affine[q];
   }
   return out;
 }

@@ -26,25 +26,27 @@ Real evaluate_probe(const Simulation<dim>& sim, const ProbeSpec& probe) {
     return std::isfinite(front) ? front + half_spacing : std::nan("");
   }
   if (probe.type == "water_height") {
-    // Top of the water column connected to the floor at a gauge: splashes and drops above
-    // an empty cell do not count.
-    auto height_at = [&](Real gauge, Real half_width) {
-      const int rows = grid.cells[up];
-      std::vector<Real> row_top(rows, -std::numeric_limits<Real>::infinity());
-      for (const auto& x : fluid.position)
-        if (std::abs(x[0] - gauge) <= half_width) {
-          const int row = std::min(rows - 1, std::max(0, int(std::floor((x[up] - grid.origin[up]) / grid.dx))));
-          row_top[row] = std::max(row_top[row], x[up]);
-        }
-      Real top = -std::numeric_limits<Real>::infinity();
-      for (int row = 0; row < rows && std::isfinite(row_top[row]); ++row) top = row_top[row];
-      return std::isfinite(top) ? top + half_spacing - grid.origin[up] : Real(0);
-    };
-    if (probe.position_to == kNoRange) return height_at(probe.position, probe.band < 0 ? grid.dx : probe.band);
+    // Top of the water column connected to the floor at each gauge (one, or one every dx
+    // from position to `to`, each over half a cell either side): splashes and drops above
+    // an empty cell do not count. One pass over the particles fills every gauge's rows.
+    const bool range = probe.position_to != kNoRange;
+    const Real half_width = range ? Real(0.5) * grid.dx : (probe.band < 0 ? grid.dx : probe.band);
+    const int gauges = range ? int(std::floor((probe.position_to - probe.position) / grid.dx + 1e-9)) + 1 : 1;
+    const int rows = grid.cells[up];
+    std::vector<Real> row_top(std::size_t(gauges) * rows, -std::numeric_limits<Real>::infinity());
+    for (const auto& x : fluid.position) {
+      const int g = range ? int(std::lround((x[0] - probe.position) / grid.dx)) : 0;
+      if (g < 0 || g >= gauges || std::abs(x[0] - (probe.position + g * grid.dx)) > half_width) continue;
+      const int row = std::min(rows - 1, std::max(0, int(std::floor((x[up] - grid.origin[up]) / grid.dx))));
+      Real& top = row_top[std::size_t(g) * rows + row];
+      top = std::max(top, x[up]);
+    }
     Real sum = 0;
-    int gauges = 0;
-    for (Real gauge = probe.position; gauge <= probe.position_to + 1e-9 * grid.dx; gauge += grid.dx, ++gauges)
-      sum += height_at(gauge, Real(0.5) * grid.dx);
+    for (int g = 0; g < gauges; ++g) {
+      Real top = -std::numeric_limits<Real>::infinity();
+      for (int row = 0; row < rows && std::isfinite(row_top[std::size_t(g) * rows + row]); ++row) top = row_top[std::size_t(g) * rows + row];
+      sum += std::isfinite(top) ? top + half_spacing - grid.origin[up] : Real(0);
+    }
     return sum / gauges;
   }
   if (probe.type == "pressure") {

@@ -72,6 +72,7 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
   long iterations_total = 0;
   int iterations_min = std::numeric_limits<int>::max(), iterations_max = 0;
   int wall_clamps = 0;
+  long shifted_solves = 0;  // direct pressure solves retried with a tiny diagonal shift
   long newton_total = 0, newton_cg_total = 0;
   int newton_min = std::numeric_limits<int>::max(), newton_max = 0;
   double solid_min_J = 1;
@@ -96,6 +97,7 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
       iterations_min = std::min(iterations_min, stats.linear.iterations);
       iterations_max = std::max(iterations_max, stats.linear.iterations);
       wall_clamps += stats.wall_clamps;
+      shifted_solves += stats.linear.shifted;
       newton_total += stats.newton_iterations;
       newton_cg_total += stats.newton_cg_iterations;
       newton_min = std::min(newton_min, stats.newton_iterations);
@@ -147,6 +149,7 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
         {"cg_per_step", steps ? double(newton_cg_total) / steps : 0.0}}},
       {"solid_min_J", solid_min_J},
       {"wall_clamps", wall_clamps},
+      {"shifted_solves", shifted_solves},
       {"initial_volume", initial_volume},
       {"final_volume", final_volume},
       {"volume_drift", initial_volume > 0 ? (final_volume - initial_volume) / initial_volume : 0.0},

@@ -134,8 +134,10 @@ class Simulation {
   // Interface quadrature of this step (empty: no coupling this step).
   InterfacePoints<dim> iq_points_;
   InterfaceOperators<dim> iq_ops_;
-  Particles<dim> fluid_quadrature_;        // fluid particles (shared mass) + borrowed fluid at IQ points
+  Particles<dim> fluid_quadrature_;        // borrowed_fluid = mass: fluid particles (shared mass) + borrowed fluid
   ParticleBins<dim> fluid_quadrature_bins_;
+  Particles<dim> borrowed_points_;         // borrowed_fluid = volume: the massless G^f points at IQ points
+  ParticleBins<dim> borrowed_point_bins_;
   std::vector<Real> previous_interface_;   // h by dual cell, warm start
   int interface_offset_ = -1;
   std::vector<Vec<dim>> interface_force_;  // per body, from the last solve
@@ -155,10 +157,11 @@ class Simulation {
     }
   };
   std::vector<ForceRegion> force_regions_;
-  bool borrowing_ = false;  // this step's fluid quadrature includes fluid borrowed at IQ points
-  bool lend_mass_ = false;  // ... and the borrowed points carry mass (coupling.borrowed_fluid = "mass")
-  const Particles<dim>& quadrature_fluid() const { return borrowing_ ? fluid_quadrature_ : fluid_; }
-  const ParticleBins<dim>& quadrature_bins() const { return borrowing_ ? fluid_quadrature_bins_ : fluid_bins_; }
+  bool lend_mass_ = false;        // this step's quadrature lends fluid mass to IQ points (borrowed_fluid = mass)
+  bool borrowed_volume_ = false;  // ... or adds massless volume points there (borrowed_fluid = volume)
+  // The fluid quadrature of P2G and M^f (and of G^f, with the borrowed volume points).
+  const Particles<dim>& quadrature_fluid() const { return lend_mass_ ? fluid_quadrature_ : fluid_; }
+  const ParticleBins<dim>& quadrature_bins() const { return lend_mass_ ? fluid_quadrature_bins_ : fluid_bins_; }
   // Material points followed by displacement probes.
   struct Marker {
     std::string name;

@@ -192,9 +192,8 @@ template <int dim>
 void Simulation<dim>::particles_to_grid(Real dt) {
   auto scope = timer_.scope("p2g");
   if (has_fluid()) {
-    // Borrowed mass (coupling.borrowed_fluid = "mass") joins the transfer; borrowed volume does not.
-    if (lend_mass_) fluid_particles_to_grid(grid_, quadrature_fluid(), quadrature_bins(), corner_momentum_);
-    else fluid_particles_to_grid(grid_, fluid_, fluid_bins_, corner_momentum_);
+    // Lent mass (coupling.borrowed_fluid = "mass") joins the transfer; borrowed volume does not.
+    fluid_particles_to_grid(grid_, quadrature_fluid(), quadrature_bins(), corner_momentum_);
     for (std::size_t k = 0; k < corner_momentum_.mass.size(); ++k)
       corner_momentum_.momentum[k] += dt * corner_momentum_.mass[k] * gravity_;
   }
@@ -263,11 +262,18 @@ template <int dim>
 void Simulation<dim>::find_interface_quadrature() {
   auto scope = timer_.scope("interface quadrature");
   iq_points_ = find_interface_points(grid_, fluid_, fluid_bins_, solid_);
-  borrowing_ = !iq_points_.empty() && scene_.coupling.borrowed_fluid != "none";
-  lend_mass_ = borrowing_ && scene_.coupling.borrowed_fluid == "mass";
-  if (!borrowing_) return;
-  fluid_quadrature_ = fluid_quadrature(grid_, fluid_, solid_, iq_points_, lend_mass_);
-  fluid_quadrature_bins_ = sort_particles_by_cell(grid_, fluid_quadrature_);
+  const bool borrowing = !iq_points_.empty() && scene_.coupling.borrowed_fluid != "none";
+  lend_mass_ = borrowing && scene_.coupling.borrowed_fluid == "mass";
+  borrowed_volume_ = borrowing && !lend_mass_;
+  // Borrowed volume: a few massless points beside the (already sorted) fluid particles.
+  // Lent mass changes every lender, so the whole quadrature is rebuilt and sorted.
+  if (borrowed_volume_) {
+    borrowed_points_ = borrowed_fluid_points(grid_, fluid_, solid_, iq_points_, false);
+    borrowed_point_bins_ = sort_particles_by_cell(grid_, borrowed_points_);
+  } else if (lend_mass_) {
+    fluid_quadrature_ = fluid_quadrature_lending_mass(grid_, fluid_, solid_, iq_points_);
+    fluid_quadrature_bins_ = sort_particles_by_cell(grid_, fluid_quadrature_);
+  }
 }
 
 // §4: H^s and H^f rows, after both materials' dofs are numbered.
@@ -284,6 +290,10 @@ void Simulation<dim>::build_fluid_operators() {
   FluidQuadratureOptions<dim> options;
   options.surface_cells_at_centre = scene_.fluid.surface_quadrature == "centre";
   if (!iq_points_.empty() && !scene_.coupling.interior_fluid_corners) options.real_fluid_bins = &fluid_bins_;
+  if (borrowed_volume_) {
+    options.volume_points = &borrowed_points_;
+    options.volume_point_bins = &borrowed_point_bins_;
+  }
   ops_ = iqmpm::build_fluid_operators<dim>(grid_, quadrature_fluid(), quadrature_bins(), corner_momentum_, fluid_density_, slip_, options);
 }
 
