@@ -293,6 +293,28 @@ _register(_force_at_rest("submerged_block", "Interface force at rest on a clampe
                          "vertical interface force on the block", RHO_F * G * 0.02, "rho g V", 0.5))
 
 
+# The issue's rest test: a free block as dense as the water stays put (speed < 1e-3 m/s at 1 s).
+_register(Benchmark(
+    name="neutral_block",
+    title="Neutrally buoyant block at rest (submerged_block released, rho_s = rho_f)",
+    dim=2,
+    foam_case=None,
+    metrics=(MetricSpec("com_y", "m", "block centre height", (ConstantReference("rest", "initial height", 0.25),)),
+             MetricSpec("block_velocity_y", "m/s", "block mean vertical velocity"),
+             MetricSpec("block_force_y", FORCE_2D, "vertical interface force on the block",
+                        (ConstantReference("weight", "weight = rho g V", RHO_F * G * 0.02),), skip_initial=True),
+             MetricSpec("max_speed", "m/s", "largest particle speed (spurious currents)")),
+    scalars=(
+        ScalarSpec("block_velocity_y_end", "m/s", "block vertical velocity, mean over the last 20 % (criterion: "
+                   "below 1e-3 m/s in size)", reference=0.0, reference_label="at rest", column="block_velocity_y",
+                   reducer="mean_tail", tail=0.2),
+        ScalarSpec("com_y_final", "m", "block centre height at the end", reference=0.25,
+                   reference_label="initial height", column="com_y", reducer="last"),
+    ),
+    primary=("com_y", "rest"),
+))
+
+
 def _floating(name: str, title: str, equilibrium_com_y: float, roll: bool = False,
               quick: bool = True) -> Benchmark:
     scalars = [

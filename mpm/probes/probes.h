@@ -69,6 +69,7 @@ Real evaluate_probe(const Simulation<dim>& sim, const ProbeSpec& probe) {
   if (probe.type == "solid_force")
     return (probe.region.empty() ? sim.interface_force(sim.body_index(probe.solid)) : sim.region_interface_force(probe.name))[probe.axis];
   if (probe.type == "solid_com") return sim.solid_centre_of_mass(sim.body_index(probe.solid))[probe.axis];
+  if (probe.type == "solid_velocity") return sim.solid_mean_velocity(sim.body_index(probe.solid))[probe.axis];
   if (probe.type == "solid_angle") return probe.initial_angle + sim.solid_angle(sim.body_index(probe.solid));
   if (probe.type == "max_speed") {
     Real speed = 0;

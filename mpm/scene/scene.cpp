@@ -45,7 +45,7 @@ ProbeSpec read_probe(JsonReader& r, int dim, const std::vector<Real>& domain_min
   const bool doc = r.documenting();
   p.type = r.choice("type", std::nullopt,
                     {"front", "water_height", "pressure", "wall_force", "max_speed", "volume", "hydrostatic_pressure_error",
-                     "displacement", "solid_force", "solid_com", "solid_angle"},
+                     "displacement", "solid_force", "solid_com", "solid_velocity", "solid_angle"},
                     "what the probe measures (a metrics.csv column per probe)");
   const std::string default_name = p.type == "front" ? "front_x"
                                    : p.type == "water_height" ? "height_left"
@@ -68,14 +68,15 @@ ProbeSpec read_probe(JsonReader& r, int dim, const std::vector<Real>& domain_min
     if (!doc && p.position_to != kNoRange && p.position_to < p.position)
       throw InputError(fmt::format("scene key '{}.to': must not be below position ({} m)", r.path(), p.position));
   }
-  const bool of_solid = p.type == "solid_force" || p.type == "solid_com" || p.type == "solid_angle";
-  if ((p.type == "displacement" || p.type == "solid_force" || p.type == "solid_com") && !doc)
+  const bool of_solid =
+      p.type == "solid_force" || p.type == "solid_com" || p.type == "solid_velocity" || p.type == "solid_angle";
+  if ((p.type == "displacement" || p.type == "solid_force" || p.type == "solid_com" || p.type == "solid_velocity") && !doc)
     p.axis = r.integer("axis", 0, 0, dim - 1, "");
   if (of_solid || doc)
     p.solid = r.text("solid", std::nullopt,
-                     "solid_force / solid_com / solid_angle: name of the body (solids[].name). solid_force: force of the fluid "
-                     "on it along axis (interface multipliers, method.md §7; N/m in 2-D); solid_com: its centre of mass along "
-                     "axis (m); solid_angle: its rotation since the start (rad, 2-D, counter-clockwise)");
+                     "solid_force / solid_com / solid_velocity / solid_angle: name of the body (solids[].name). solid_force: "
+                     "force of the fluid on it along axis (interface multipliers, method.md §7; N/m in 2-D); solid_com: its "
+                     "centre of mass along axis (m); solid_velocity: its mass-weighted mean velocity along axis (m/s); solid_angle: its rotation since the start (rad, 2-D, counter-clockwise)");
   if (p.type == "solid_angle" || doc)
     p.initial_angle = r.number("initial_angle", 0, -kInf, kInf,
                                "solid_angle: the body's orientation at t = 0 (rad, counter-clockwise), added to its "

@@ -23,7 +23,7 @@ struct ShapeSpec {
 inline constexpr Real kNoRange = -1e300;  // an unset optional coordinate
 
 struct ProbeSpec {
-  std::string type;   // front | water_height | pressure | wall_force | max_speed | volume | hydrostatic_pressure_error | displacement | solid_force | solid_com | solid_angle
+  std::string type;   // front | water_height | pressure | wall_force | max_speed | volume | hydrostatic_pressure_error | displacement | solid_force | solid_com | solid_velocity | solid_angle
   std::string name;   // metrics.csv column
   int axis = 0;               // front: direction of travel; displacement: component
   Real band = -1;             // front: particles below this height count; water_height: half-width (m); -1 = one cell
@@ -33,7 +33,7 @@ struct ProbeSpec {
   int wall_axis = 0, wall_side = 0;  // wall_force
   Real surface = 0;           // hydrostatic_pressure_error: still-water level
   Real initial_angle = 0;     // solid_angle: the body's orientation at t = 0 (rad), added to its rotation
-  std::string solid;          // solid_force, solid_com, solid_angle: the body's name
+  std::string solid;          // solid_force, solid_com, solid_velocity, solid_angle: the body's name
   std::vector<ShapeSpec> region;  // solid_force: only the part of the body that starts in this shape (empty: all)
 };
 

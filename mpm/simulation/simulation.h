@@ -64,6 +64,7 @@ class Simulation {
   // Centre of mass of a body, and (2-D) its rotation angle: the least-squares rotation of
   // its particles about the centre of mass since the start (rad, counter-clockwise).
   Vec<dim> solid_centre_of_mass(int body) const;
+  Vec<dim> solid_mean_velocity(int body) const;  // momentum / mass of the body's particles
   Real solid_angle(int body) const;
   int body_index(const std::string& name) const;
   int interface_points() const { return iq_points_.size(); }

@@ -668,6 +668,15 @@ Vec<dim> Simulation<dim>::solid_centre_of_mass(int body) const {
 }
 
 template <int dim>
+Vec<dim> Simulation<dim>::solid_mean_velocity(int body) const {
+  Vec<dim> momentum = Vec<dim>::Zero();
+  Real mass = 0;
+  for (std::size_t p = 0; p < solid_.size(); ++p)
+    if (solid_.body[p] == body) momentum += solid_.mass[p] * solid_.velocity[p], mass += solid_.mass[p];
+  return momentum / mass;
+}
+
+template <int dim>
 Real Simulation<dim>::solid_angle(int body) const {
   if constexpr (dim != 2) {
     return std::nan("");
