@@ -658,22 +658,25 @@ void Simulation<dim>::measure_interface_forces() {
   }
 }
 
+// Mass-weighted mean over one body's particles of a per-particle vector (position: the
+// centre of mass; velocity: momentum / mass).
 template <int dim>
-Vec<dim> Simulation<dim>::solid_centre_of_mass(int body) const {
+Vec<dim> body_mass_average(const Particles<dim>& solid, int body, const std::vector<Vec<dim>>& field) {
   Vec<dim> sum = Vec<dim>::Zero();
   Real mass = 0;
-  for (std::size_t p = 0; p < solid_.size(); ++p)
-    if (solid_.body[p] == body) sum += solid_.mass[p] * solid_.position[p], mass += solid_.mass[p];
+  for (std::size_t p = 0; p < solid.size(); ++p)
+    if (solid.body[p] == body) sum += solid.mass[p] * field[p], mass += solid.mass[p];
   return sum / mass;
 }
 
 template <int dim>
+Vec<dim> Simulation<dim>::solid_centre_of_mass(int body) const {
+  return body_mass_average(solid_, body, solid_.position);
+}
+
+template <int dim>
 Vec<dim> Simulation<dim>::solid_mean_velocity(int body) const {
-  Vec<dim> momentum = Vec<dim>::Zero();
-  Real mass = 0;
-  for (std::size_t p = 0; p < solid_.size(); ++p)
-    if (solid_.body[p] == body) momentum += solid_.mass[p] * solid_.velocity[p], mass += solid_.mass[p];
-  return momentum / mass;
+  return body_mass_average(solid_, body, solid_.velocity);
 }
 
 template <int dim>
