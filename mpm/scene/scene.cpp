@@ -76,7 +76,8 @@ ProbeSpec read_probe(JsonReader& r, int dim, const std::vector<Real>& domain_min
     p.solid = r.text("solid", std::nullopt,
                      "solid_force / solid_com / solid_velocity / solid_angle: name of the body (solids[].name). solid_force: "
                      "force of the fluid on it along axis (interface multipliers, method.md §7; N/m in 2-D); solid_com: its "
-                     "centre of mass along axis (m); solid_velocity: its mass-weighted mean velocity along axis (m/s); solid_angle: its rotation since the start (rad, 2-D, counter-clockwise)");
+                     "centre of mass along axis (m); solid_velocity: its mass-weighted mean velocity along axis (m/s); "
+                     "solid_angle: its rotation since the start (rad, 2-D, counter-clockwise)");
   if (p.type == "solid_angle" || doc)
     p.initial_angle = r.number("initial_angle", 0, -kInf, kInf,
                                "solid_angle: the body's orientation at t = 0 (rad, counter-clockwise), added to its "
