@@ -96,12 +96,7 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
   };
 
   // Pressure unknowns: dual cells with at least one quadrature point.
-  ops.pressure_of_cell.assign(cells.size(), -1);
-  for (int k = 0; k < cells.size(); ++k)
-    if (points_in(k) > 0) {
-      ops.pressure_of_cell[k] = int(ops.cell_of_pressure.size());
-      ops.cell_of_pressure.push_back(k);
-    }
+  number_cells_where(cells.size(), [&](int k) { return points_in(k) > 0; }, ops.pressure_of_cell, ops.cell_of_pressure);
 
   // A cell is interior when no neighbour (3^dim block) is an empty cell inside the
   // domain: it is then full of fluid and the exact one-point rule applies (method.md §4).

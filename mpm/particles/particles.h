@@ -72,18 +72,23 @@ struct ParticleBins {
   int slab_end(int last) const { return cell_start[last * layout.slab_size()]; }
 };
 
+// Numbers the cells k < cells with occupied(k) in order: of_cell[k] (-1 elsewhere) and its inverse.
+template <class Occupied>
+void number_cells_where(int cells, Occupied&& occupied, std::vector<int>& of_cell, std::vector<int>& cell_of) {
+  of_cell.assign(cells, -1);
+  cell_of.clear();
+  for (int k = 0; k < cells; ++k)
+    if (occupied(k)) {
+      of_cell[k] = int(cell_of.size());
+      cell_of.push_back(k);
+    }
+}
+
 // Numbers the dual cells that hold particles (pressure-like unknowns, method.md §2):
 // of_cell[k] = number or -1 for an empty cell; cell_of lists the cells in order.
 template <int dim>
 void number_occupied_cells(const ParticleBins<dim>& bins, std::vector<int>& of_cell, std::vector<int>& cell_of) {
-  const int cells = bins.layout.size();
-  of_cell.assign(cells, -1);
-  cell_of.clear();
-  for (int k = 0; k < cells; ++k)
-    if (bins.count(k) > 0) {
-      of_cell[k] = int(cell_of.size());
-      cell_of.push_back(k);
-    }
+  number_cells_where(bins.layout.size(), [&](int k) { return bins.count(k) > 0; }, of_cell, cell_of);
 }
 
 // Counting sort of the particles by dual cell; particles must lie inside the domain.
