@@ -18,6 +18,7 @@ using Sparse = Eigen::SparseMatrix<Real>;
 class PcgSolver final : public LinearSolver {
  public:
   explicit PcgSolver(const LinearSolverOptions& options) : options_(options) {}
+  bool solves_quasi_definite() const override { return false; }
 
   LinearSolveStats solve(const Sparse& A, const Eigen::VectorXd& b, Eigen::VectorXd& x) override {
     LinearSolveStats stats;
@@ -86,6 +87,7 @@ template <class Factor>
 class DirectSolver final : public LinearSolver {
  public:
   explicit DirectSolver(std::string name) : name_(std::move(name)) {}
+  bool solves_quasi_definite() const override { return name_ == "ldlt"; }
 
   LinearSolveStats solve(const Sparse& A, const Eigen::VectorXd& b, Eigen::VectorXd& x) override {
     LinearSolveStats stats;

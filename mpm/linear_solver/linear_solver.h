@@ -33,6 +33,8 @@ class LinearSolver {
   // x holds the initial guess on entry (zero or the warm start) and the solution on exit.
   virtual LinearSolveStats solve(const Eigen::SparseMatrix<Real>& A, const Eigen::VectorXd& b,
                                  Eigen::VectorXd& x) = 0;
+  // LDL^T also solves symmetric quasi-definite systems; CG and LL^T need SPD ones.
+  virtual bool solves_quasi_definite() const = 0;
 };
 
 // Chooses the solver for a system of `unknowns` rows according to the options. "auto" is

@@ -9,6 +9,19 @@
 // every block A11 ... A44 of (36) (A12 = A13 = 0 fall out), and the right-hand side
 // r = D v* + (S p_g^n / dt, 0, -b, 0). The velocities are recovered as
 // v^{n+1} = v* - dt M^-1 D^T lambda. A scene adds only the blocks it needs.
+//
+// The solid's stiffness in the solve (coupling.solid_response = stiffness): the entries of
+// v that belong to free solid nodes get the Newton Hessian H = M^s + dt^2 K at v* (the
+// linearised implicit-Euler step, method.md §3 step 2) as their mass instead of the lumped
+// M^s, so the pressure "sees" a solid that resists being deformed within the step rather
+// than a cloud of free nodal masses. H^-1 is dense, so those velocities stay unknowns:
+//     [ A_rest     dt D_b ] [lambda]   [r]
+//     [ dt D_b^T  -dt H   ] [  u   ] = [0],   v_b^{n+1} = v_b* - dt u,
+// with D_b the constraint columns of those entries and A_rest = dt D M^-1 D^T + C over
+// the other entries. Eliminating u (u = H^-1 D_b^T lambda) gives the pressure-only system
+// with H^-1 in place of M^s-1; with H = M^s it is (36) exactly. The matrix is symmetric
+// quasi-definite (A_rest positive (semi-)definite, -dt H negative definite), so an LDL^T
+// factorisation needs no pivoting.
 #pragma once
 
 #include <Eigen/SparseCore>
@@ -38,6 +51,16 @@ class PressureSystem {
     compliance_.clear();
     offset_rhs_.clear();
     rows_ = 0;
+    block_columns_.clear();
+    block_mass_ = SparseMatrix();
+  }
+
+  // The stacked velocity entries `columns` take the SPD mass matrix `mass` (rows and
+  // columns in the order of `columns`) instead of their inverse_mass entries; call after
+  // reset and before assemble.
+  void set_mass_block(std::vector<int> columns, SparseMatrix mass) {
+    block_columns_ = std::move(columns);
+    block_mass_ = std::move(mass);
   }
 
   // Adds a block of rows. `rows` are triplets with block-local row indices and column
@@ -64,32 +87,65 @@ class PressureSystem {
     for (const auto& t : entries) triplets_.emplace_back(t.row() + offset, t.col(), t.value());
   }
 
-  // Builds D and A = dt D M^-1 D^T + diag(compliance).
+  // Builds D and A = dt D M^-1 D^T + diag(compliance), bordered by the mass block if any.
   void assemble(Real dt) {
     constraint_.resize(rows_, inverse_mass_.size());
     constraint_.setFromTriplets(triplets_.begin(), triplets_.end());
+    for (int column : block_columns_) inverse_mass_[column] = 0;
     SparseRowMatrix scaled = constraint_ * inverse_mass_.asDiagonal();
     SparseMatrix transpose = constraint_.transpose();
-    matrix_ = dt * (scaled * transpose);
+    SparseMatrix multipliers = dt * (scaled * transpose);
     for (int i = 0; i < rows_; ++i)
-      if (compliance_[i] != 0) matrix_.coeffRef(i, i) += compliance_[i];
-    matrix_.makeCompressed();
+      if (compliance_[i] != 0) multipliers.coeffRef(i, i) += compliance_[i];
     dt_ = dt;
+    if (block_columns_.empty()) {
+      matrix_ = std::move(multipliers);
+      matrix_.makeCompressed();
+      return;
+    }
+    const int nb = int(block_columns_.size());
+    SparseMatrix select(inverse_mass_.size(), nb);  // v_b = select^T v
+    std::vector<Eigen::Triplet<Real>> entries;
+    for (int k = 0; k < nb; ++k) entries.emplace_back(block_columns_[k], k, 1);
+    select.setFromTriplets(entries.begin(), entries.end());
+    const SparseMatrix coupling = SparseMatrix(constraint_) * select;  // D_b
+    entries.clear();
+    entries.reserve(multipliers.nonZeros() + 2 * coupling.nonZeros() + block_mass_.nonZeros());
+    auto append = [&](const SparseMatrix& m, int row0, int col0, Real scale) {
+      for (int c = 0; c < m.outerSize(); ++c)
+        for (SparseMatrix::InnerIterator it(m, c); it; ++it)
+          entries.emplace_back(row0 + it.row(), col0 + it.col(), scale * it.value());
+    };
+    append(multipliers, 0, 0, 1);
+    append(coupling, 0, rows_, dt);
+    append(coupling.transpose(), rows_, 0, dt);
+    append(block_mass_, rows_, rows_, -dt);
+    matrix_.resize(rows_ + nb, rows_ + nb);
+    matrix_.setFromTriplets(entries.begin(), entries.end());
+    matrix_.makeCompressed();
   }
 
-  // r = D v* + offset.
+  // r = D v* + offset (and zeros for the mass block's rows).
   Eigen::VectorXd rhs(const Eigen::VectorXd& velocity) const {
-    Eigen::VectorXd r = constraint_ * velocity;
+    Eigen::VectorXd r = Eigen::VectorXd::Zero(size());
+    r.head(rows_) = constraint_ * velocity;
     for (int i = 0; i < rows_; ++i) r[i] += offset_rhs_[i];
     return r;
   }
 
-  // v^{n+1} = v* - dt M^-1 D^T lambda.
-  Eigen::VectorXd corrected_velocity(const Eigen::VectorXd& velocity, const Eigen::VectorXd& lambda) const {
-    return velocity - dt_ * inverse_mass_.cwiseProduct(constraint_.transpose() * lambda);
+  // v^{n+1} = v* - dt M^-1 D^T lambda, and v_b* - dt u on the mass block's entries;
+  // `solution` is (lambda, u) as solved.
+  Eigen::VectorXd corrected_velocity(const Eigen::VectorXd& velocity, const Eigen::VectorXd& solution) const {
+    Eigen::VectorXd v = velocity - dt_ * inverse_mass_.cwiseProduct(constraint_.transpose() * solution.head(rows_));
+    for (int k = 0; k < int(block_columns_.size()); ++k) v[block_columns_[k]] -= dt_ * solution[rows_ + k];
+    return v;
   }
 
+  // The multipliers (p_g, p_f, y, h): the solution's first unknowns() entries.
   int unknowns() const { return rows_; }
+  // The rows of the solved system: the multipliers, then the mass block's velocities.
+  int size() const { return rows_ + int(block_columns_.size()); }
+  bool has_mass_block() const { return !block_columns_.empty(); }
   const SparseMatrix& matrix() const { return matrix_; }
   const SparseRowMatrix& constraint() const { return constraint_; }
   const std::vector<Block>& blocks() const { return blocks_; }
@@ -107,6 +163,8 @@ class PressureSystem {
   std::vector<Real> offset_rhs_;
   int rows_ = 0;
   Real dt_ = 0;
+  std::vector<int> block_columns_;
+  SparseMatrix block_mass_;
   SparseRowMatrix constraint_;
   SparseMatrix matrix_;
 };

@@ -256,6 +256,13 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
         "method.md (measured: fluid leaks into the solid); false: such corners move with the solid (their velocity "
         "is the N2 interpolation of the solid's), so p_f and h act on the solid there (README, coupling); true "
         "needs borrowed_fluid = mass (those corners need the borrowed mass)");
+    scene.coupling.solid_response = coupling.choice(
+        "solid_response", scene.coupling.solid_response, {"mass", "stiffness"},
+        "how the coupled pressure solve sees the solid after its Newton step: mass = the lumped nodal masses "
+        "(system (36) of method.md §5; the solid's elastic response to this step's pressure comes one step later); "
+        "stiffness = the Newton Hessian M + dt^2 K at v*, so the pressure meets a solid that resists deformation "
+        "within the step (a bordered, quasi-definite system: needs the LDL^T solve, solver.method = ldlt or auto in "
+        "2-D; measured: the stiff plate right at dt 1 ms, about 35 % more wall time; README, coupling)");
     if (scene.coupling.interior_fluid_corners && scene.coupling.borrowed_fluid != "mass" && !docs)
       throw InputError("scene key 'coupling.interior_fluid_corners' = true: needs coupling.borrowed_fluid = \"mass\" "
                        "(free fluid corners inside a solid have no mass otherwise)");

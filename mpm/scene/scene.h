@@ -72,6 +72,7 @@ struct NewtonSpec {
 struct CouplingSpec {
   std::string borrowed_fluid = "volume";  // volume | mass | none
   bool interior_fluid_corners = false;  // true: keep fluid corners inside solids as free unknowns (method.md)
+  std::string solid_response = "mass";  // mass | stiffness: the solid's mass matrix in the coupled solve
 };
 
 struct SceneSpec {

@@ -103,6 +103,7 @@ class Simulation {
   void build_interface_operators();
   void measure_interface_forces();
   void assemble_pressure_system(Real dt);
+  void set_solid_mass_block();
   void solve_pressure_system();
   void update_grid_velocities();
   void grid_to_particles(Real dt);
@@ -175,7 +176,11 @@ class Simulation {
   int fluid_column_offset_ = 0;  // solid velocities first, then fluid
   Eigen::VectorXd velocity_star_;  // stacked grid velocities before the projection
   PressureSystem system_;
-  Eigen::VectorXd lambda_;         // solution (p_f, y)
+  Eigen::VectorXd lambda_;         // solution: the multipliers (p_g, p_f, y, h), then the mass block's u
+  // The Newton Hessian at v* and the dense node of each of its dim-row groups (empty:
+  // coupling.solid_response = mass, or no free solid node).
+  Eigen::SparseMatrix<Real, Eigen::RowMajor, int> solid_hessian_;
+  std::vector<int> solid_hessian_nodes_;
   Eigen::VectorXd velocity_next_;  // stacked grid velocities after the projection
   std::vector<Vec<dim>> corner_velocity_;
   // Previous solution by dual cell, for the warm start.

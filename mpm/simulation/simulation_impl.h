@@ -233,6 +233,7 @@ void Simulation<dim>::solve_solid_momentum(Real dt) {
     const bool clamped = !state.clamped.empty() && state.clamped[k];
     any_free = state.mass[k] > 0 && !clamped;
   }
+  solid_hessian_nodes_.clear();
   if (!any_free) {
     node_velocity_star_.assign(nodes.size(), Vec<dim>::Zero());
     last_.newton_iterations = last_.newton_cg_iterations = 0;
@@ -249,6 +250,11 @@ void Simulation<dim>::solve_solid_momentum(Real dt) {
                                        "larger newton.max_iterations", result.summary()));
   potential.scatter(v, node_velocity_star_);
   wall_held_axes_ = std::move(state.fixed_axes);  // kept at zero by the pressure solve too
+  if (scene_.coupling.solid_response == "stiffness") {
+    // The linearisation of the step at v* for the coupled solve (pressure_system.h).
+    solid_hessian_ = potential.hessian(v, true);
+    for (int r = 0; r * dim < potential.unknowns(); ++r) solid_hessian_nodes_.push_back(potential.dense_node(r));
+  }
 }
 
 template <int dim>
@@ -330,6 +336,7 @@ void Simulation<dim>::assemble_pressure_system(Real dt) {
     }
   }
   system_.reset(inverse_mass);
+  if (!solid_hessian_nodes_.empty()) set_solid_mass_block();
   ghost_offset_ = pressure_offset_ = wall_offset_ = interface_offset_ = -1;
   if (has_solids()) {
     std::vector<Real> compliance(solid_ops_.pressure_unknowns()), offset(solid_ops_.pressure_unknowns());
@@ -364,12 +371,34 @@ void Simulation<dim>::assemble_pressure_system(Real dt) {
   last_.velocity_unknowns = (ns + nf) * dim;
 }
 
+// coupling.solid_response = stiffness: the free solid velocity entries take the Newton
+// Hessian M^s + dt^2 K at v* as their mass in the solve (pressure_system.h). A component
+// held by a wall stays out: its inverse mass is zero, the solve cannot move it.
+template <int dim>
+void Simulation<dim>::set_solid_mass_block() {
+  const int n = int(solid_hessian_nodes_.size()) * dim;
+  std::vector<int> reduced(n, -1), columns;
+  for (int k = 0; k < n; ++k) {
+    const int node = solid_hessian_nodes_[k / dim], a = k % dim;
+    if (wall_held_axes_[node] & (1u << a)) continue;
+    reduced[k] = int(columns.size());
+    columns.push_back(solid_ops_.dof_of_node[node] * dim + a);
+  }
+  std::vector<Triplet> entries;
+  for (int row = 0; row < n; ++row)
+    for (typename decltype(solid_hessian_)::InnerIterator it(solid_hessian_, row); it; ++it)
+      if (reduced[row] >= 0 && reduced[it.col()] >= 0) entries.emplace_back(reduced[row], reduced[it.col()], it.value());
+  SparseMatrix mass(int(columns.size()), int(columns.size()));
+  mass.setFromTriplets(entries.begin(), entries.end());
+  system_.set_mass_block(std::move(columns), std::move(mass));
+}
+
 template <int dim>
 void Simulation<dim>::solve_pressure_system() {
   auto scope = timer_.scope("solve");
   const Eigen::VectorXd rhs = system_.rhs(velocity_star_);
   // Warm start from the previous step's solution, matched by dual cell and wall face.
-  Eigen::VectorXd x = Eigen::VectorXd::Zero(system_.unknowns());
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(system_.size());
   if (ghost_offset_ >= 0 && !previous_ghost_.empty())
     for (int j = 0; j < solid_ops_.pressure_unknowns(); ++j) x[ghost_offset_ + j] = previous_ghost_[solid_ops_.cell_of_pressure[j]];
   if (pressure_offset_ >= 0 && !previous_pressure_.empty())
@@ -382,7 +411,12 @@ void Simulation<dim>::solve_pressure_system() {
     }
   if (interface_offset_ >= 0 && !previous_interface_.empty())
     for (int j = 0; j < iq_ops_.multipliers(); ++j) x[interface_offset_ + j] = previous_interface_[iq_ops_.cell_of_multiplier[j]];
-  auto solver = make_linear_solver(scene_.solver, system_.unknowns(), dim);
+  auto solver = make_linear_solver(scene_.solver, system_.size(), dim);
+  if (system_.has_mass_block() && !solver->solves_quasi_definite())
+    throw InputError(fmt::format("scene key 'coupling.solid_response' = \"stiffness\" needs the LDL^T pressure solve "
+                                 "(solver.method = ldlt, or auto in 2-D up to solver.direct_max_unknowns = {}); "
+                                 "this system has {} rows. Accepted: mass | stiffness",
+                                 scene_.solver.direct_max_unknowns, system_.size()));
   last_.linear = solver->solve(system_.matrix(), rhs, x);
   if (!last_.linear.converged || !x.allFinite())
     throw NumericalFailure(fmt::format(
@@ -637,7 +671,7 @@ void Simulation<dim>::measure_interface_forces() {
   interface_force_.assign(scene_.solids.size(), Vec<dim>::Zero());
   for (auto& region : force_regions_) region.force.setZero();
   if (interface_offset_ < 0) return;
-  Eigen::VectorXd coupling = Eigen::VectorXd::Zero(lambda_.size());
+  Eigen::VectorXd coupling = Eigen::VectorXd::Zero(system_.unknowns());
   coupling.segment(interface_offset_, iq_ops_.multipliers()) = lambda_.segment(interface_offset_, iq_ops_.multipliers());
   if (!ops_.solid_corner_gradient.empty())
     coupling.segment(pressure_offset_, ops_.pressure_unknowns()) = lambda_.segment(pressure_offset_, ops_.pressure_unknowns());

@@ -4,6 +4,8 @@
 // solver tolerance; the projection does not add kinetic energy; PCG and CHOLMOD agree.
 #include <Eigen/Dense>
 
+#include "linear_solver/linear_solver.h"
+#include "pressure/pressure_system.h"
 #include "simulation/simulation.h"
 #include "test_helpers.h"
 
@@ -83,6 +85,85 @@ TYPED_TEST(PressureSystemTest, PcgAndCholmodAgree) {
   ASSERT_EQ(a.size(), b.size());
   EXPECT_LE((a - b).norm(), 1e-8 * a.norm());
   EXPECT_GT(iterative.last_step().linear.iterations, 0);
+}
+
+}  // namespace
+}  // namespace iqmpm
+
+namespace iqmpm {
+namespace {
+
+// The bordered system of coupling.solid_response = stiffness (pressure_system.h) on random
+// operators: eliminating its velocity unknowns u gives the pressure-only system with H^-1 in
+// place of the lumped inverse mass on the bordered entries, so lambda and the recovered
+// velocities equal those of the dense formula; with H = M it is the plain system (36).
+TEST(BorderedPressureSystemTest, EqualsThePressureOnlySystemWithTheInverseOfH) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<Real> uniform(-1, 1);
+  const int velocities = 14, rows = 6;
+  const Real dt = 0.01;
+  const std::vector<int> bordered = {1, 2, 3, 7, 8};
+  Eigen::VectorXd inverse_mass(velocities), v_star(velocities);
+  for (int k = 0; k < velocities; ++k) inverse_mass[k] = 1 / (1 + 0.5 * (1 + uniform(rng))), v_star[k] = uniform(rng);
+  std::vector<Eigen::Triplet<Real>> entries;
+  for (int r = 0; r < rows; ++r)
+    for (int k = 0; k < velocities; ++k)
+      if (uniform(rng) > 0.2) entries.emplace_back(r, k, uniform(rng));
+  std::vector<Real> compliance(rows, 0), offset(rows, 0);
+  compliance[0] = 0.3, offset[0] = 0.2;  // a ghost-matrix-like row
+  const int nb = int(bordered.size());
+  const Eigen::MatrixXd R = Eigen::MatrixXd::NullaryExpr(nb, nb, [&] { return uniform(rng); });
+  Eigen::MatrixXd H = R * R.transpose() + Eigen::MatrixXd::Identity(nb, nb);  // SPD, M + dt^2 K-like
+  for (int k = 0; k < nb; ++k) H(k, k) += 1 / inverse_mass[bordered[k]];
+
+  // Reference: A = dt D W D^T + C with W = M^-1 except W_bb = H^-1; v = v* - dt W D^T lambda.
+  SparseMatrix D(rows, velocities);
+  D.setFromTriplets(entries.begin(), entries.end());
+  Eigen::MatrixXd W = Eigen::MatrixXd(inverse_mass.asDiagonal());
+  const Eigen::MatrixXd H_inverse = H.inverse();
+  for (int a = 0; a < nb; ++a) {
+    W(bordered[a], bordered[a]) = 0;
+    for (int b = 0; b < nb; ++b) W(bordered[a], bordered[b]) = H_inverse(a, b);
+  }
+  const Eigen::MatrixXd Dd = Eigen::MatrixXd(D);
+  Eigen::MatrixXd A = dt * Dd * W * Dd.transpose();
+  Eigen::VectorXd r = Dd * v_star;
+  for (int i = 0; i < rows; ++i) A(i, i) += compliance[i], r[i] += offset[i];
+  const Eigen::VectorXd lambda = A.ldlt().solve(r);
+  const Eigen::VectorXd v_next = v_star - dt * W * Dd.transpose() * lambda;
+
+  auto solve_bordered = [&](const Eigen::MatrixXd& mass) {
+    PressureSystem system;
+    system.reset(inverse_mass);
+    system.add_block("rows", rows, entries, compliance, offset);
+    system.set_mass_block(bordered, Eigen::MatrixXd(mass).sparseView());
+    system.assemble(dt);
+    EXPECT_EQ(system.size(), rows + nb);
+    const SparseMatrix& K = system.matrix();
+    EXPECT_LT((K - SparseMatrix(K.transpose())).norm(), 1e-14 * K.norm());
+    Eigen::VectorXd x = Eigen::VectorXd::Zero(system.size());
+    const auto stats = make_linear_solver(LinearSolverOptions{"ldlt"}, system.size(), 2)->solve(K, system.rhs(v_star), x);
+    EXPECT_TRUE(stats.converged);
+    EXPECT_LT(stats.relative_residual, 1e-12);
+    return std::make_pair(Eigen::VectorXd(x.head(rows)), system.corrected_velocity(v_star, x));
+  };
+  const auto [lambda_h, v_h] = solve_bordered(H);
+  EXPECT_LT((lambda_h - lambda).norm(), 1e-10 * lambda.norm());
+  EXPECT_LT((v_h - v_next).norm(), 1e-10 * v_next.norm());
+
+  // H = M on the bordered entries: the lumped system (36).
+  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(nb, nb);
+  for (int k = 0; k < nb; ++k) M(k, k) = 1 / inverse_mass[bordered[k]];
+  PressureSystem lumped;
+  lumped.reset(inverse_mass);
+  lumped.add_block("rows", rows, entries, compliance, offset);
+  lumped.assemble(dt);
+  const Eigen::VectorXd lambda_m = Eigen::MatrixXd(lumped.matrix()).ldlt().solve(lumped.rhs(v_star));
+  const auto [lambda_b, v_b] = solve_bordered(M);
+  EXPECT_LT((lambda_b - lambda_m).norm(), 1e-10 * lambda_m.norm());
+  EXPECT_LT((v_b - lumped.corrected_velocity(v_star, lambda_m)).norm(), 1e-10 * v_b.norm());
+  // The stiffer solid moves less under the same constraints: a different solution.
+  EXPECT_GT((lambda_h - lambda_m).norm(), 1e-3 * lambda_m.norm());
 }
 
 }  // namespace

@@ -195,9 +195,16 @@ namespace {
 // constraint row (incompressibility, walls, the interface's normal-velocity jump) to the
 // direct solver's precision. This checks the algebra of the coupling; the physics of the
 // benchmark is still open (issue #4 notes: leakage through the per-cell constraint).
-TEST(CoupledSystemTest, ConstraintsHoldAfterTheSolve) {
-  Simulation<2> sim(load_scene(std::string(IQMPM_BENCHMARKS_DIR) + "/submerged_block/submerged_block.json", {}));
+// With coupling.solid_response = stiffness the solid's velocities are unknowns of a
+// bordered system (pressure_system.h); the same constraints must hold.
+class CoupledSystemTest : public ::testing::TestWithParam<const char*> {};
+INSTANTIATE_TEST_SUITE_P(SolidResponse, CoupledSystemTest, ::testing::Values("mass", "stiffness"));
+
+TEST_P(CoupledSystemTest, ConstraintsHoldAfterTheSolve) {
+  Simulation<2> sim(load_scene(std::string(IQMPM_BENCHMARKS_DIR) + "/submerged_block/submerged_block.json",
+                               {std::string("coupling.solid_response=\"") + GetParam() + "\""}));
   sim.step(0.005);
+  ASSERT_EQ(sim.pressure_system().has_mass_block(), std::string(GetParam()) == "stiffness");
   ASSERT_GT(sim.interface_points(), 0);
   const PressureSystem& system = sim.pressure_system();
   const auto* h = system.find("h");
