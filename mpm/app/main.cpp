@@ -75,6 +75,10 @@ void print_stage_table(const Json& summary) {
              summary["steps"].get<long>(), summary["particles"].get<long>(), summary["active_cells"].get<int>(),
              summary["active_cells_max"].get<int>(), summary["linear_solver"].get<std::string>(), it["min"].get<int>(),
              it["mean"].get<double>(), it["max"].get<int>(), summary["volume_drift"].get<double>());
+  const auto& solves = summary["pressure_solves"];
+  if (solves["max"].get<int>() > 1)
+    fmt::print("pressure solves per step (unilateral interface) mean {:.2f}, max {}, steps whose active set did not settle {}\n",
+               solves["mean"].get<double>(), solves["max"].get<int>(), solves["unsettled_steps"].get<int>());
 }
 
 }  // namespace

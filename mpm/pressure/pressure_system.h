@@ -25,6 +25,9 @@
 #pragma once
 
 #include <Eigen/SparseCore>
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -53,6 +56,25 @@ class PressureSystem {
     rows_ = 0;
     block_columns_.clear();
     block_mass_ = SparseMatrix();
+    released_.clear();
+  }
+
+  // Released rows (one flag per row; empty: none) are left out of D for this assembly and
+  // get unit compliance and no offset, so their multiplier is zero: an inequality
+  // constraint that is inactive (coupling.interface = unilateral). Call before assemble.
+  void release(std::vector<std::uint8_t> rows) { released_ = std::move(rows); }
+
+  // D_full v over every row, released ones included (for the active set's check).
+  Eigen::VectorXd full_constraint_times(const Eigen::VectorXd& velocity) const {
+    Eigen::VectorXd r = Eigen::VectorXd::Zero(rows_);
+    for (const auto& t : triplets_) r[t.row()] += t.value() * velocity[t.col()];
+    return r;
+  }
+  // sum_k |D_full(i, k)| per row: the scale of a row's value.
+  Eigen::VectorXd full_row_scale() const {
+    Eigen::VectorXd r = Eigen::VectorXd::Zero(rows_);
+    for (const auto& t : triplets_) r[t.row()] += std::abs(t.value());
+    return r;
   }
 
   // The stacked velocity entries `columns` take the SPD mass matrix `mass` (rows and
@@ -90,13 +112,24 @@ class PressureSystem {
   // Builds D and A = dt D M^-1 D^T + diag(compliance), bordered by the mass block if any.
   void assemble(Real dt) {
     constraint_.resize(rows_, inverse_mass_.size());
-    constraint_.setFromTriplets(triplets_.begin(), triplets_.end());
+    const bool any_released = std::find(released_.begin(), released_.end(), 1) != released_.end();
+    if (any_released) {
+      std::vector<Eigen::Triplet<Real>> kept;
+      kept.reserve(triplets_.size());
+      for (const auto& t : triplets_)
+        if (!released_[t.row()]) kept.push_back(t);
+      constraint_.setFromTriplets(kept.begin(), kept.end());
+    } else {
+      constraint_.setFromTriplets(triplets_.begin(), triplets_.end());
+    }
     for (int column : block_columns_) inverse_mass_[column] = 0;
     SparseRowMatrix scaled = constraint_ * inverse_mass_.asDiagonal();
     SparseMatrix transpose = constraint_.transpose();
     SparseMatrix multipliers = dt * (scaled * transpose);
-    for (int i = 0; i < rows_; ++i)
-      if (compliance_[i] != 0) multipliers.coeffRef(i, i) += compliance_[i];
+    for (int i = 0; i < rows_; ++i) {
+      const Real c = any_released && released_[i] ? 1 : compliance_[i];
+      if (c != 0) multipliers.coeffRef(i, i) += c;
+    }
     dt_ = dt;
     if (block_columns_.empty()) {
       matrix_ = std::move(multipliers);
@@ -129,7 +162,8 @@ class PressureSystem {
   Eigen::VectorXd rhs(const Eigen::VectorXd& velocity) const {
     Eigen::VectorXd r = Eigen::VectorXd::Zero(size());
     r.head(rows_) = constraint_ * velocity;
-    for (int i = 0; i < rows_; ++i) r[i] += offset_rhs_[i];
+    for (int i = 0; i < rows_; ++i)
+      if (released_.empty() || !released_[i]) r[i] += offset_rhs_[i];
     return r;
   }
 
@@ -165,6 +199,7 @@ class PressureSystem {
   Real dt_ = 0;
   std::vector<int> block_columns_;
   SparseMatrix block_mass_;
+  std::vector<std::uint8_t> released_;
   SparseRowMatrix constraint_;
   SparseMatrix matrix_;
 };

@@ -73,6 +73,8 @@ struct CouplingSpec {
   std::string borrowed_fluid = "volume";  // volume | mass | none
   bool interior_fluid_corners = false;  // true: keep fluid corners inside solids as free unknowns (method.md)
   std::string solid_response = "mass";  // mass | stiffness: the solid's mass matrix in the coupled solve
+  std::string interface = "bilateral";  // bilateral | unilateral (h >= 0: the fluid may separate)
+  int max_contact_rounds = 8;           // unilateral: pressure solves per step at most
 };
 
 struct SceneSpec {

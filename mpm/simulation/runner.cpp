@@ -75,6 +75,8 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
   long shifted_solves = 0;  // direct pressure solves retried with a tiny diagonal shift
   long newton_total = 0, newton_cg_total = 0;
   int newton_min = std::numeric_limits<int>::max(), newton_max = 0;
+  long contact_rounds_total = 0;
+  int contact_rounds_max = 0, unsettled_steps = 0;
   double solid_min_J = 1;
   std::string linear_method;
   std::string status = "ok";
@@ -103,6 +105,9 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
       newton_min = std::min(newton_min, stats.newton_iterations);
       newton_max = std::max(newton_max, stats.newton_iterations);
       solid_min_J = std::min(solid_min_J, double(stats.solid_min_J));
+      contact_rounds_total += stats.contact_rounds;
+      contact_rounds_max = std::max(contact_rounds_max, stats.contact_rounds);
+      unsettled_steps += !stats.contact_settled;
       linear_method = stats.linear.method;
       sample(t);
       for (std::size_t c = 1; c < result.metrics.back().size(); ++c)
@@ -148,6 +153,10 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
         {"max", newton_max},
         {"cg_per_step", steps ? double(newton_cg_total) / steps : 0.0}}},
       {"solid_min_J", solid_min_J},
+      {"pressure_solves",  // per step; above 1 with coupling.interface = unilateral (active-set rounds)
+       {{"mean", steps ? double(contact_rounds_total) / steps : 0.0},
+        {"max", contact_rounds_max},
+        {"unsettled_steps", unsettled_steps}}},
       {"wall_clamps", wall_clamps},
       {"shifted_solves", shifted_solves},
       {"initial_volume", initial_volume},

@@ -34,6 +34,8 @@ struct StepStats {
   int newton_iterations = 0;
   int newton_cg_iterations = 0;
   Real solid_min_J = 1;  // smallest det F of a solid particle after the step
+  int contact_rounds = 1;  // pressure solves of the step (coupling.interface = unilateral: active-set rounds)
+  bool contact_settled = true;  // unilateral: the active set stopped changing within max_contact_rounds
 };
 
 template <int dim>
@@ -104,6 +106,8 @@ class Simulation {
   void measure_interface_forces();
   void assemble_pressure_system(Real dt);
   void set_solid_mass_block();
+  void mark_unilateral_rows();
+  bool update_released_rows();
   void solve_pressure_system();
   void update_grid_velocities();
   void grid_to_particles(Real dt);
@@ -181,6 +185,12 @@ class Simulation {
   // coupling.solid_response = mass, or no free solid node).
   Eigen::SparseMatrix<Real, Eigen::RowMajor, int> solid_hessian_;
   std::vector<int> solid_hessian_nodes_;
+  // coupling.interface = unilateral, per row of the system: an inequality row (h, or p_f
+  // acting on the solid), its dual cell, released this round; the released cells of the
+  // last round (h and p_f rows apart), the next step's starting set.
+  std::vector<std::uint8_t> unilateral_row_, released_rows_;
+  std::vector<int> cell_of_row_;
+  std::vector<std::uint8_t> released_h_cells_, released_p_cells_;
   Eigen::VectorXd velocity_next_;  // stacked grid velocities after the projection
   std::vector<Vec<dim>> corner_velocity_;
   // Previous solution by dual cell, for the warm start.

@@ -173,8 +173,22 @@ void Simulation<dim>::step(Real dt) {
   if (has_fluid()) build_fluid_operators();
   if (has_solids()) build_solid_operators();
   if (!iq_points_.empty()) build_interface_operators();
+  // coupling.interface = unilateral: the fluid may leave a solid, by active sets started
+  // from the previous step's released cells.
+  released_rows_.clear();
+  last_.contact_rounds = 1;
+  last_.contact_settled = true;
   assemble_pressure_system(dt);
   solve_pressure_system();
+  while (scene_.coupling.interface == "unilateral" && update_released_rows()) {
+    if (last_.contact_rounds == scene_.coupling.max_contact_rounds) {
+      last_.contact_settled = false;  // keep the last solve's (consistent) solution
+      break;
+    }
+    ++last_.contact_rounds;
+    assemble_pressure_system(dt);
+    solve_pressure_system();
+  }
   update_grid_velocities();
   grid_to_particles(dt);
   if (has_fluid() && scene_.fluid.position_correction > 0) correct_particle_positions();
@@ -366,6 +380,7 @@ void Simulation<dim>::assemble_pressure_system(Real dt) {
     interface_offset_ = system_.unknowns();
     system_.add_block("h", iq_ops_.multipliers(), iq_ops_.rows);
   }
+  if (scene_.coupling.interface == "unilateral") mark_unilateral_rows();
   system_.assemble(dt);
   last_.pressure_unknowns = system_.unknowns();
   last_.velocity_unknowns = (ns + nf) * dim;
@@ -442,6 +457,65 @@ void Simulation<dim>::solve_pressure_system() {
       const auto& face = ops_.wall_faces[f];
       previous_wall_[{face.dual_cell, face.wall.axis * 2 + face.wall.side}] = x[wall_offset_ + f];
     }
+}
+
+// coupling.interface = unilateral (method.md §9: the bilateral constraint holds fluid to a
+// solid it touches). The rows through which the fluid pulls on a solid are inequalities:
+// every h row, and the p_f rows of cells whose corners move with the solid. On the first
+// round of a step a row starts released where its cell was released at the end of the
+// last step; released rows have zero multiplier (PressureSystem::release).
+template <int dim>
+void Simulation<dim>::mark_unilateral_rows() {
+  const int rows = system_.unknowns();
+  unilateral_row_.assign(rows, 0);
+  cell_of_row_.assign(rows, -1);
+  for (int j = 0; interface_offset_ >= 0 && j < iq_ops_.multipliers(); ++j) {  // iq_ops_ is stale without IQ points
+    unilateral_row_[interface_offset_ + j] = 1;
+    cell_of_row_[interface_offset_ + j] = iq_ops_.cell_of_multiplier[j];
+  }
+  for (const auto& entry : ops_.solid_corner_gradient) {
+    if (pressure_offset_ < 0) break;
+    unilateral_row_[pressure_offset_ + entry.row] = 1;
+    cell_of_row_[pressure_offset_ + entry.row] = ops_.cell_of_pressure[entry.row];
+  }
+  if (released_rows_.empty()) {
+    released_rows_.assign(rows, 0);
+    for (int i = 0; i < rows; ++i) {
+      if (!unilateral_row_[i]) continue;
+      const auto& released = i >= interface_offset_ && interface_offset_ >= 0 ? released_h_cells_ : released_p_cells_;
+      if (!released.empty()) released_rows_[i] = released[cell_of_row_[i]];
+    }
+  }
+  system_.release(released_rows_);
+}
+
+// One round of the active set: an enforced row in tension (multiplier < 0) is released,
+// so the fluid may separate there; a released row whose fluid now compresses against the
+// solid (row value D v > 0: approach for h, convergence for p_f) is enforced again.
+// Returns whether the set changed; remembers the released cells for the next step.
+template <int dim>
+bool Simulation<dim>::update_released_rows() {
+  if (unilateral_row_.empty()) return false;
+  const Eigen::VectorXd v = system_.corrected_velocity(velocity_star_, lambda_);
+  const Eigen::VectorXd value = system_.full_constraint_times(v), scale = system_.full_row_scale();
+  const Real speed = v.size() ? v.cwiseAbs().maxCoeff() : 0;
+  bool changed = false;
+  for (int i = 0; i < system_.unknowns(); ++i) {
+    if (!unilateral_row_[i]) continue;
+    if (!released_rows_[i] && lambda_[i] < 0) {
+      released_rows_[i] = 1;
+      changed = true;
+    } else if (released_rows_[i] && value[i] > 1e-9 * scale[i] * speed) {
+      released_rows_[i] = 0;
+      changed = true;
+    }
+  }
+  released_h_cells_.assign(grid_.dual_cells().size(), 0);
+  released_p_cells_.assign(grid_.dual_cells().size(), 0);
+  for (int i = 0; i < system_.unknowns(); ++i)
+    if (unilateral_row_[i] && released_rows_[i])
+      (i >= interface_offset_ && interface_offset_ >= 0 ? released_h_cells_ : released_p_cells_)[cell_of_row_[i]] = 1;
+  return changed;
 }
 
 // §5: v^{n+1} = v* - dt M^-1 D^T lambda.
