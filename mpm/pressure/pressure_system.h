@@ -22,6 +22,9 @@
 // with H^-1 in place of M^s-1; with H = M^s it is (36) exactly. The matrix is symmetric
 // quasi-definite (A_rest positive (semi-)definite, -dt H negative definite), so an LDL^T
 // factorisation needs no pivoting.
+//
+// Inequality rows (coupling.interface = unilateral) are handled by the caller's active
+// set: a released row stays in place with zero multiplier for one assembly (release()).
 #pragma once
 
 #include <Eigen/SparseCore>
