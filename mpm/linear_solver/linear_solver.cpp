@@ -19,6 +19,7 @@ class PcgSolver final : public LinearSolver {
  public:
   explicit PcgSolver(const LinearSolverOptions& options) : options_(options) {}
   bool solves_quasi_definite() const override { return false; }
+  std::string name() const override { return "pcg-" + options_.preconditioner; }
 
   LinearSolveStats solve(const Sparse& A, const Eigen::VectorXd& b, Eigen::VectorXd& x) override {
     LinearSolveStats stats;
@@ -88,14 +89,27 @@ class DirectSolver final : public LinearSolver {
  public:
   explicit DirectSolver(std::string name) : name_(std::move(name)) {}
   bool solves_quasi_definite() const override { return name_ == "ldlt"; }
+  std::string name() const override { return name_; }
 
   LinearSolveStats solve(const Sparse& A, const Eigen::VectorXd& b, Eigen::VectorXd& x) override {
     LinearSolveStats stats;
     stats.method = name_;
-    Factor factor;
-    configure(factor);
-    factor.compute(A);
+    // The symbolic analysis (fill-reducing ordering, elimination tree) depends on the
+    // pattern only: kept while the pattern repeats (the active-set rounds of one step).
+    const bool same_pattern = analysed_ && std::size_t(A.outerSize()) + 1 == pattern_outer_.size() &&
+                              std::equal(pattern_outer_.begin(), pattern_outer_.end(), A.outerIndexPtr()) &&
+                              A.nonZeros() == Eigen::Index(pattern_inner_.size()) &&
+                              std::equal(pattern_inner_.begin(), pattern_inner_.end(), A.innerIndexPtr());
+    if (!same_pattern) {
+      configure(factor);
+      factor.analyzePattern(A);
+      pattern_outer_.assign(A.outerIndexPtr(), A.outerIndexPtr() + A.outerSize() + 1);
+      pattern_inner_.assign(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros());
+      analysed_ = true;
+    }
+    factor.factorize(A);
     if (factor.info() != Eigen::Success) {
+      analysed_ = false;  // the shifted retry below analyses afresh
       // A semi-definite system (method.md §5: an enclosed pocket of fluid, or interface rows
       // that coincide with divergence rows next to a clamped body) can meet an exact zero
       // pivot. Retry once with a diagonal shift of 1e-12 of the mean diagonal, which selects
@@ -129,6 +143,9 @@ class DirectSolver final : public LinearSolver {
   }
 
   std::string name_;
+  Factor factor;
+  bool analysed_ = false;
+  std::vector<int> pattern_outer_, pattern_inner_;
 };
 
 }  // namespace

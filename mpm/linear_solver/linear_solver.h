@@ -35,6 +35,9 @@ class LinearSolver {
                                  Eigen::VectorXd& x) = 0;
   // LDL^T also solves symmetric quasi-definite systems; CG and LL^T need SPD ones.
   virtual bool solves_quasi_definite() const = 0;
+  // The method, as LinearSolveStats::method. A direct solver keeps its symbolic analysis
+  // for the next solve of the same pattern, so a caller may keep one solver per system.
+  virtual std::string name() const = 0;
 };
 
 // Chooses the solver for a system of `unknowns` rows according to the options. "auto" is

@@ -24,7 +24,7 @@
 // factorisation needs no pivoting.
 //
 // Inequality rows (coupling.interface = unilateral) are handled by the caller's active
-// set: a released row stays in place with zero multiplier for one assembly (release()).
+// set: a released row stays in place with zero multiplier (release()).
 #pragma once
 
 #include <Eigen/SparseCore>
@@ -62,23 +62,21 @@ class PressureSystem {
     released_.clear();
   }
 
-  // Released rows (one flag per row; empty: none) are left out of D for this assembly and
-  // get unit compliance and no offset, so their multiplier is zero: an inequality
-  // constraint that is inactive (coupling.interface = unilateral). Call before assemble.
-  void release(std::vector<std::uint8_t> rows) { released_ = std::move(rows); }
+  // Released rows (one flag per row; empty: none): their multiplier is zero, an inequality
+  // constraint that is inactive (coupling.interface = unilateral). In the matrix their row
+  // and column become the unit vector and their right-hand side zero; since A = dt D M^-1
+  // D^T + C, that is the system without those rows of D, and the pattern (and D) stays the
+  // same from one active-set round to the next. Before or after assemble.
+  void release(std::vector<std::uint8_t> rows) {
+    released_ = std::move(rows);
+    if (assembled_.rows() > 0) apply_release();
+  }
+  bool released(int row) const { return row < int(released_.size()) && released_[row]; }
 
-  // D_full v over every row, released ones included (for the active set's check).
-  Eigen::VectorXd full_constraint_times(const Eigen::VectorXd& velocity) const {
-    Eigen::VectorXd r = Eigen::VectorXd::Zero(rows_);
-    for (const auto& t : triplets_) r[t.row()] += t.value() * velocity[t.col()];
-    return r;
-  }
-  // sum_k |D_full(i, k)| per row: the scale of a row's value.
-  Eigen::VectorXd full_row_scale() const {
-    Eigen::VectorXd r = Eigen::VectorXd::Zero(rows_);
-    for (const auto& t : triplets_) r[t.row()] += std::abs(t.value());
-    return r;
-  }
+  // D v over every row, released ones included (for the active set's check).
+  Eigen::VectorXd full_constraint_times(const Eigen::VectorXd& velocity) const { return constraint_ * velocity; }
+  // sum_k |D(i, k)| per row: the scale of a row's value.
+  Eigen::VectorXd full_row_scale() const { return constraint_.cwiseAbs() * Eigen::VectorXd::Ones(constraint_.cols()); }
 
   // The stacked velocity entries `columns` take the SPD mass matrix `mass` (rows and
   // columns in the order of `columns`) instead of their inverse_mass entries; call after
@@ -115,28 +113,18 @@ class PressureSystem {
   // Builds D and A = dt D M^-1 D^T + diag(compliance), bordered by the mass block if any.
   void assemble(Real dt) {
     constraint_.resize(rows_, inverse_mass_.size());
-    const bool any_released = std::find(released_.begin(), released_.end(), 1) != released_.end();
-    if (any_released) {
-      std::vector<Eigen::Triplet<Real>> kept;
-      kept.reserve(triplets_.size());
-      for (const auto& t : triplets_)
-        if (!released_[t.row()]) kept.push_back(t);
-      constraint_.setFromTriplets(kept.begin(), kept.end());
-    } else {
-      constraint_.setFromTriplets(triplets_.begin(), triplets_.end());
-    }
+    constraint_.setFromTriplets(triplets_.begin(), triplets_.end());
     for (int column : block_columns_) inverse_mass_[column] = 0;
     SparseRowMatrix scaled = constraint_ * inverse_mass_.asDiagonal();
     SparseMatrix transpose = constraint_.transpose();
     SparseMatrix multipliers = dt * (scaled * transpose);
-    for (int i = 0; i < rows_; ++i) {
-      const Real c = any_released && released_[i] ? 1 : compliance_[i];
-      if (c != 0) multipliers.coeffRef(i, i) += c;
-    }
+    for (int i = 0; i < rows_; ++i)
+      if (compliance_[i] != 0) multipliers.coeffRef(i, i) += compliance_[i];
     dt_ = dt;
     if (block_columns_.empty()) {
-      matrix_ = std::move(multipliers);
-      matrix_.makeCompressed();
+      assembled_ = std::move(multipliers);
+      assembled_.makeCompressed();
+      apply_release();
       return;
     }
     const int nb = int(block_columns_.size());
@@ -156,24 +144,27 @@ class PressureSystem {
     append(coupling, 0, rows_, dt);
     append(coupling.transpose(), rows_, 0, dt);
     append(block_mass_, rows_, rows_, -dt);
-    matrix_.resize(rows_ + nb, rows_ + nb);
-    matrix_.setFromTriplets(entries.begin(), entries.end());
-    matrix_.makeCompressed();
+    assembled_.resize(rows_ + nb, rows_ + nb);
+    assembled_.setFromTriplets(entries.begin(), entries.end());
+    assembled_.makeCompressed();
+    apply_release();
   }
 
   // r = D v* + offset (and zeros for the mass block's rows).
   Eigen::VectorXd rhs(const Eigen::VectorXd& velocity) const {
     Eigen::VectorXd r = Eigen::VectorXd::Zero(size());
     r.head(rows_) = constraint_ * velocity;
-    for (int i = 0; i < rows_; ++i)
-      if (released_.empty() || !released_[i]) r[i] += offset_rhs_[i];
+    for (int i = 0; i < rows_; ++i) r[i] = released(i) ? 0 : r[i] + offset_rhs_[i];
     return r;
   }
 
   // v^{n+1} = v* - dt M^-1 D^T lambda, and v_b* - dt u on the mass block's entries;
   // `solution` is (lambda, u) as solved.
   Eigen::VectorXd corrected_velocity(const Eigen::VectorXd& velocity, const Eigen::VectorXd& solution) const {
-    Eigen::VectorXd v = velocity - dt_ * inverse_mass_.cwiseProduct(constraint_.transpose() * solution.head(rows_));
+    Eigen::VectorXd lambda = solution.head(rows_);
+    for (int i = 0; i < rows_; ++i)
+      if (released(i)) lambda[i] = 0;  // exactly: an iterative solve leaves it at the tolerance
+    Eigen::VectorXd v = velocity - dt_ * inverse_mass_.cwiseProduct(constraint_.transpose() * lambda);
     for (int k = 0; k < int(block_columns_.size()); ++k) v[block_columns_[k]] -= dt_ * solution[rows_ + k];
     return v;
   }
@@ -203,6 +194,26 @@ class PressureSystem {
   std::vector<int> block_columns_;
   SparseMatrix block_mass_;
   std::vector<std::uint8_t> released_;
+  SparseMatrix assembled_;  // the matrix with no row released
+
+  // matrix_ = assembled_ with the released rows and columns replaced by unit vectors.
+  void apply_release() {
+    matrix_ = assembled_;
+    if (std::find(released_.begin(), released_.end(), 1) == released_.end()) return;
+    std::vector<int> missing_diagonal;
+    for (int c = 0; c < matrix_.outerSize(); ++c) {
+      bool diagonal = false;
+      for (SparseMatrix::InnerIterator it(matrix_, c); it; ++it) {
+        const int r = int(it.row());
+        if (!(released(r) || (c < rows_ && released(c)))) continue;
+        it.valueRef() = r == c ? 1 : 0;
+        diagonal = diagonal || r == c;
+      }
+      if (c < rows_ && released(c) && !diagonal) missing_diagonal.push_back(c);
+    }
+    for (int c : missing_diagonal) matrix_.coeffRef(c, c) = 1;  // a row of D that moved nothing
+    matrix_.makeCompressed();
+  }
   SparseRowMatrix constraint_;
   SparseMatrix matrix_;
 };

@@ -7,6 +7,7 @@
 #include <array>
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -180,6 +181,7 @@ class Simulation {
   int fluid_column_offset_ = 0;  // solid velocities first, then fluid
   Eigen::VectorXd velocity_star_;  // stacked grid velocities before the projection
   PressureSystem system_;
+  std::unique_ptr<LinearSolver> pressure_solver_;
   Eigen::VectorXd lambda_;         // solution: the multipliers (p_g, p_f, y, h), then the mass block's u
   // The Newton Hessian at v* and the dense node of each of its dim-row groups (empty:
   // coupling.solid_response = mass, or no free solid node).

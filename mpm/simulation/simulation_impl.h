@@ -186,7 +186,7 @@ void Simulation<dim>::step(Real dt) {
       break;
     }
     ++last_.contact_rounds;
-    assemble_pressure_system(dt);
+    system_.release(released_rows_);  // same matrix pattern, released rows decoupled
     solve_pressure_system();
   }
   update_grid_velocities();
@@ -380,8 +380,8 @@ void Simulation<dim>::assemble_pressure_system(Real dt) {
     interface_offset_ = system_.unknowns();
     system_.add_block("h", iq_ops_.multipliers(), iq_ops_.rows);
   }
-  if (scene_.coupling.interface == "unilateral") mark_unilateral_rows();
   system_.assemble(dt);
+  if (scene_.coupling.interface == "unilateral") mark_unilateral_rows();
   last_.pressure_unknowns = system_.unknowns();
   last_.velocity_unknowns = (ns + nf) * dim;
 }
@@ -426,7 +426,11 @@ void Simulation<dim>::solve_pressure_system() {
     }
   if (interface_offset_ >= 0 && !previous_interface_.empty())
     for (int j = 0; j < iq_ops_.multipliers(); ++j) x[interface_offset_ + j] = previous_interface_[iq_ops_.cell_of_multiplier[j]];
-  auto solver = make_linear_solver(scene_.solver, system_.size(), dim);
+  // One solver kept across solves: a direct one reuses its symbolic analysis while the
+  // pattern repeats (the active-set rounds of a step).
+  auto chosen = make_linear_solver(scene_.solver, system_.size(), dim);
+  if (!pressure_solver_ || pressure_solver_->name() != chosen->name()) pressure_solver_ = std::move(chosen);
+  LinearSolver* solver = pressure_solver_.get();
   if (system_.has_mass_block() && !solver->solves_quasi_definite())
     throw InputError(fmt::format("scene key 'coupling.solid_response' = \"stiffness\" needs the LDL^T pressure solve "
                                  "(solver.method = ldlt, or auto in 2-D up to solver.direct_max_unknowns = {}); "
@@ -463,7 +467,8 @@ void Simulation<dim>::solve_pressure_system() {
 // solid it touches). The rows through which the fluid pulls on a solid are inequalities:
 // every h row, and the p_f rows of cells whose corners move with the solid. On the first
 // round of a step a row starts released where its cell was released at the end of the
-// last step; released rows have zero multiplier (PressureSystem::release).
+// last step; released rows have zero multiplier (PressureSystem::release). Call after
+// the system is assembled.
 template <int dim>
 void Simulation<dim>::mark_unilateral_rows() {
   const int rows = system_.unknowns();
