@@ -60,6 +60,8 @@ class PressureSystem {
     block_columns_.clear();
     block_mass_ = SparseMatrix();
     released_.clear();
+    matrix_ = SparseMatrix();
+    unreleased_ = SparseMatrix();
   }
 
   // Released rows (one flag per row; empty: none): their multiplier is zero, an inequality
@@ -69,7 +71,7 @@ class PressureSystem {
   // same from one active-set round to the next. Before or after assemble.
   void release(std::vector<std::uint8_t> rows) {
     released_ = std::move(rows);
-    if (assembled_.rows() > 0) apply_release();
+    if (matrix_.rows() == size()) apply_release();
   }
   bool released(int row) const { return row < int(released_.size()) && released_[row]; }
 
@@ -122,8 +124,9 @@ class PressureSystem {
       if (compliance_[i] != 0) multipliers.coeffRef(i, i) += compliance_[i];
     dt_ = dt;
     if (block_columns_.empty()) {
-      assembled_ = std::move(multipliers);
-      assembled_.makeCompressed();
+      matrix_ = std::move(multipliers);
+      matrix_.makeCompressed();
+      unreleased_ = SparseMatrix();
       apply_release();
       return;
     }
@@ -144,9 +147,10 @@ class PressureSystem {
     append(coupling, 0, rows_, dt);
     append(coupling.transpose(), rows_, 0, dt);
     append(block_mass_, rows_, rows_, -dt);
-    assembled_.resize(rows_ + nb, rows_ + nb);
-    assembled_.setFromTriplets(entries.begin(), entries.end());
-    assembled_.makeCompressed();
+    matrix_.resize(rows_ + nb, rows_ + nb);
+    matrix_.setFromTriplets(entries.begin(), entries.end());
+    matrix_.makeCompressed();
+    unreleased_ = SparseMatrix();
     apply_release();
   }
 
@@ -194,12 +198,21 @@ class PressureSystem {
   std::vector<int> block_columns_;
   SparseMatrix block_mass_;
   std::vector<std::uint8_t> released_;
-  SparseMatrix assembled_;  // the matrix with no row released
+  // The assembled matrix with no row released, kept from the first release after an
+  // assembly on (the active set may enforce a released row again); empty until then, so a
+  // bilateral run never copies the matrix.
+  SparseMatrix unreleased_;
 
-  // matrix_ = assembled_ with the released rows and columns replaced by unit vectors.
+  // matrix_ = the assembled matrix with the released rows and columns made unit vectors.
   void apply_release() {
-    matrix_ = assembled_;
-    if (std::find(released_.begin(), released_.end(), 1) == released_.end()) return;
+    const bool any = std::find(released_.begin(), released_.end(), 1) != released_.end();
+    if (unreleased_.rows() == 0) {
+      if (!any) return;
+      unreleased_ = matrix_;
+    } else {
+      matrix_ = unreleased_;
+      if (!any) return;
+    }
     std::vector<int> missing_diagonal;
     for (int c = 0; c < matrix_.outerSize(); ++c) {
       bool diagonal = false;
