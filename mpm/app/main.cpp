@@ -77,8 +77,10 @@ void print_stage_table(const Json& summary) {
              it["mean"].get<double>(), it["max"].get<int>(), summary["volume_drift"].get<double>());
   const auto& solves = summary["pressure_solves"];
   if (solves["max"].get<int>() > 1)
-    fmt::print("pressure solves per step (unilateral interface) mean {:.2f}, max {}, steps whose active set did not settle {}\n",
-               solves["mean"].get<double>(), solves["max"].get<int>(), solves["unsettled_steps"].get<int>());
+    fmt::print("pressure solves per step (unilateral interface) mean {:.2f}, max {}, steps whose active set did not settle {}, "
+               "solves by modifying the LDL^T factor {}\n",
+               solves["mean"].get<double>(), solves["max"].get<int>(), solves["unsettled_steps"].get<int>(),
+               solves["factor_modified"].get<long>());
 }
 
 }  // namespace

@@ -1,10 +1,11 @@
 // Linear solvers for the symmetric positive (semi-)definite pressure system, behind one
-// interface: preconditioned CG (incomplete Cholesky or Jacobi), Eigen LDL^T and SuiteSparse CHOLMOD.
+// interface: preconditioned CG (incomplete Cholesky or Jacobi), and CHOLMOD's LDL^T and LL^T.
 #pragma once
 
 #include <Eigen/SparseCore>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "core/types.h"
 
@@ -25,6 +26,7 @@ struct LinearSolveStats {
   Real relative_residual = 0;
   bool converged = false;
   bool shifted = false;       // direct solve: refactorised with a tiny diagonal shift after a zero pivot
+  int modified_rows = 0;      // LDL^T: rows modified in its factorisation instead of factorising (0: factorised)
 };
 
 class LinearSolver {
@@ -38,12 +40,16 @@ class LinearSolver {
   // The method, as LinearSolveStats::method. A direct solver keeps its symbolic analysis
   // for the next solve of the same pattern, so a caller may keep one solver per system.
   virtual std::string name() const = 0;
+  // The next solve's matrix differs from the last one solved only in these rows and
+  // columns: `released` ones became unit vectors, `restored` ones got their assembled
+  // entries back (the active set's rounds, PressureSystem::release). The LDL^T solver then
+  // modifies its factorisation row by row instead of factorising again; others ignore it.
+  virtual void expect_row_changes(std::vector<int> /*released*/, std::vector<int> /*restored*/) {}
 };
 
 // Chooses the solver for a system of `unknowns` rows according to the options. "auto" is
-// Eigen's LDL^T for 2-D systems up to direct_max_unknowns and PCG otherwise. Measured
-// (benchmarks/solvers/run.sh, dam break, 2 cores): LDL^T 2.0 / 12.9 ms a solve at dx = a/32
-// / a/64, CHOLMOD 2.5 / 13.8 ms, PCG 15 / 137 ms; in 3-D direct fill-in explodes (CHOLMOD
+// LDL^T for 2-D systems up to direct_max_unknowns and PCG otherwise (README, Measured:
+// benchmarks/solvers/run.sh on the dam break); in 3-D direct fill-in explodes (CHOLMOD
 // 2.8 s a solve on the 3-D hydrostatic tank, warm-started PCG 0.1 s).
 std::unique_ptr<LinearSolver> make_linear_solver(const LinearSolverOptions& options, int unknowns, int dim);
 

@@ -299,7 +299,7 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
     JsonReader solver = root.object("solver", "linear solver of the pressure system");
     auto& o = scene.solver;
     o.method = solver.choice("method", o.method, {"auto", "pcg", "cholmod", "ldlt"},
-                             "auto: ldlt in 2-D up to direct_max_unknowns unknowns, pcg otherwise (measured fastest, README); pcg: conjugate gradients; cholmod: SuiteSparse CHOLMOD (direct); ldlt: Eigen simplicial LDL^T (direct)");
+                             "auto: ldlt in 2-D up to direct_max_unknowns unknowns, pcg otherwise (measured fastest, README); pcg: conjugate gradients; cholmod: SuiteSparse CHOLMOD simplicial LL^T (direct); ldlt: CHOLMOD simplicial LDL^T (direct; also quasi-definite systems; the active set's rounds modify its factor's changed rows instead of factorising)");
     o.preconditioner = solver.choice("preconditioner", o.preconditioner, {"ichol", "jacobi"}, "PCG preconditioner: incomplete Cholesky (threshold fill, AMD ordering) or Jacobi");
     o.tolerance = solver.number("tolerance", o.tolerance, 0, 1, "PCG relative residual tolerance", true);
     o.max_iterations = solver.integer("max_iterations", o.max_iterations, 1, 1000000, "PCG iteration cap; reaching it stops the run");

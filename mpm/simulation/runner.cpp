@@ -77,6 +77,7 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
   int newton_min = std::numeric_limits<int>::max(), newton_max = 0;
   long contact_rounds_total = 0;
   int contact_rounds_max = 0, unsettled_steps = 0;
+  long modified_solves = 0;
   double solid_min_J = 1;
   std::string linear_method;
   std::string status = "ok";
@@ -108,6 +109,7 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
       contact_rounds_total += stats.contact_rounds;
       contact_rounds_max = std::max(contact_rounds_max, stats.contact_rounds);
       unsettled_steps += !stats.contact_settled;
+      modified_solves += stats.modified_solves;
       linear_method = stats.linear.method;
       sample(t);
       for (std::size_t c = 1; c < result.metrics.back().size(); ++c)
@@ -156,7 +158,8 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
       {"pressure_solves",  // per step; above 1 with coupling.interface = unilateral (active-set rounds)
        {{"mean", steps ? double(contact_rounds_total) / steps : 0.0},
         {"max", contact_rounds_max},
-        {"unsettled_steps", unsettled_steps}}},
+        {"unsettled_steps", unsettled_steps},
+        {"factor_modified", modified_solves}}},  // solves done by modifying the LDL^T factor's changed rows
       {"wall_clamps", wall_clamps},
       {"shifted_solves", shifted_solves},
       {"initial_volume", initial_volume},

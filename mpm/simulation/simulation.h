@@ -37,6 +37,7 @@ struct StepStats {
   Real solid_min_J = 1;  // smallest det F of a solid particle after the step
   int contact_rounds = 1;  // pressure solves of the step (coupling.interface = unilateral: active-set rounds)
   bool contact_settled = true;  // unilateral: the active set stopped changing within max_contact_rounds
+  int modified_solves = 0;      // unilateral: rounds solved by modifying the LDL^T factor's changed rows
 };
 
 template <int dim>

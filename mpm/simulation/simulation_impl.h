@@ -178,6 +178,7 @@ void Simulation<dim>::step(Real dt) {
   released_rows_.clear();
   last_.contact_rounds = 1;
   last_.contact_settled = true;
+  last_.modified_solves = 0;
   assemble_pressure_system(dt);
   solve_pressure_system();
   while (scene_.coupling.interface == "unilateral" && update_released_rows()) {
@@ -437,6 +438,7 @@ void Simulation<dim>::solve_pressure_system() {
                                  "this system has {} rows. Accepted: mass | stiffness",
                                  scene_.solver.direct_max_unknowns, system_.size()));
   last_.linear = solver->solve(system_.matrix(), rhs, x);
+  last_.modified_solves += last_.linear.modified_rows > 0;
   if (!last_.linear.converged || !x.allFinite())
     throw NumericalFailure(fmt::format(
         "pressure solve ({}) did not converge: relative residual {:.3g} after {} iterations (tolerance {:.1g}, {} unknowns); "
@@ -504,17 +506,20 @@ bool Simulation<dim>::update_released_rows() {
   const Eigen::VectorXd v = system_.corrected_velocity(velocity_star_, lambda_);
   const Eigen::VectorXd value = system_.full_constraint_times(v), scale = system_.full_row_scale();
   const Real speed = v.size() ? v.cwiseAbs().maxCoeff() : 0;
-  bool changed = false;
+  std::vector<int> released, restored;
   for (int i = 0; i < system_.unknowns(); ++i) {
     if (!unilateral_row_[i]) continue;
     if (!released_rows_[i] && lambda_[i] < 0) {
       released_rows_[i] = 1;
-      changed = true;
+      released.push_back(i);
     } else if (released_rows_[i] && value[i] > 1e-9 * scale[i] * speed) {
       released_rows_[i] = 0;
-      changed = true;
+      restored.push_back(i);
     }
   }
+  const bool changed = !released.empty() || !restored.empty();
+  // The next round's matrix differs from this one in these rows only.
+  if (changed && pressure_solver_) pressure_solver_->expect_row_changes(std::move(released), std::move(restored));
   released_h_cells_.assign(grid_.dual_cells().size(), 0);
   released_p_cells_.assign(grid_.dual_cells().size(), 0);
   for (int i = 0; i < system_.unknowns(); ++i)
