@@ -194,6 +194,7 @@ class Simulation {
   std::vector<std::uint8_t> unilateral_row_, released_rows_;
   std::vector<int> cell_of_row_;
   std::vector<std::uint8_t> released_h_cells_, released_p_cells_;
+  std::vector<int> newly_released_rows_, newly_restored_rows_;  // by the last active-set round
   Eigen::VectorXd velocity_next_;  // stacked grid velocities after the projection
   std::vector<Vec<dim>> corner_velocity_;
   // Previous solution by dual cell, for the warm start.

@@ -188,6 +188,9 @@ void Simulation<dim>::step(Real dt) {
     }
     ++last_.contact_rounds;
     system_.release(released_rows_);  // same matrix pattern, released rows decoupled
+    // The next solve's matrix differs from the last one in these rows only (an LDL^T
+    // solver modifies its factor instead of factorising).
+    pressure_solver_->expect_row_changes(std::move(newly_released_rows_), std::move(newly_restored_rows_));
     solve_pressure_system();
   }
   update_grid_velocities();
@@ -518,8 +521,8 @@ bool Simulation<dim>::update_released_rows() {
     }
   }
   const bool changed = !released.empty() || !restored.empty();
-  // The next round's matrix differs from this one in these rows only.
-  if (changed && pressure_solver_) pressure_solver_->expect_row_changes(std::move(released), std::move(restored));
+  newly_released_rows_ = std::move(released);
+  newly_restored_rows_ = std::move(restored);
   released_h_cells_.assign(grid_.dual_cells().size(), 0);
   released_p_cells_.assign(grid_.dual_cells().size(), 0);
   for (int i = 0; i < system_.unknowns(); ++i)
