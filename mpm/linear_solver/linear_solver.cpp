@@ -84,6 +84,33 @@ class PcgSolver final : public LinearSolver {
   LinearSolverOptions options_;
 };
 
+// The sparsity pattern of the last matrix a direct solver analysed: its symbolic analysis
+// (fill-reducing ordering, elimination tree) depends on the pattern only, so it is kept
+// while the pattern repeats (the active-set rounds of one step).
+struct SparsityPattern {
+  std::vector<int> outer, inner;
+  bool matches(const Sparse& A) const {
+    return std::size_t(A.outerSize()) + 1 == outer.size() && std::equal(outer.begin(), outer.end(), A.outerIndexPtr()) &&
+           A.nonZeros() == Eigen::Index(inner.size()) && std::equal(inner.begin(), inner.end(), A.innerIndexPtr());
+  }
+  void remember(const Sparse& A) {
+    outer.assign(A.outerIndexPtr(), A.outerIndexPtr() + A.outerSize() + 1);
+    inner.assign(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros());
+  }
+};
+
+// A semi-definite system (method.md §5: an enclosed pocket of fluid, or interface rows that
+// coincide with divergence rows next to a clamped body) can meet an exact zero pivot. A
+// direct solver then retries once with a diagonal shift of 1e-12 of the mean diagonal,
+// which selects one solution of a consistent system; the residual it reports is of the
+// unshifted system.
+Sparse with_diagonal_shift(const Sparse& A) {
+  Sparse shifted = A;
+  const Real shift = 1e-12 * A.diagonal().cwiseAbs().mean();
+  for (int i = 0; i < shifted.rows(); ++i) shifted.coeffRef(i, i) += shift;
+  return shifted;
+}
+
 // A direct factorisation (Factor: an Eigen sparse Cholesky-type solver; CHOLMOD's LL^T for
 // solver.method = cholmod) with the residual of its solution reported like PCG's.
 template <class Factor>
@@ -96,30 +123,16 @@ class DirectSolver final : public LinearSolver {
   LinearSolveStats solve(const Sparse& A, const Eigen::VectorXd& b, Eigen::VectorXd& x) override {
     LinearSolveStats stats;
     stats.method = name_;
-    // The symbolic analysis (fill-reducing ordering, elimination tree) depends on the
-    // pattern only: kept while the pattern repeats (the active-set rounds of one step).
-    const bool same_pattern = analysed_ && std::size_t(A.outerSize()) + 1 == pattern_outer_.size() &&
-                              std::equal(pattern_outer_.begin(), pattern_outer_.end(), A.outerIndexPtr()) &&
-                              A.nonZeros() == Eigen::Index(pattern_inner_.size()) &&
-                              std::equal(pattern_inner_.begin(), pattern_inner_.end(), A.innerIndexPtr());
-    if (!same_pattern) {
+    if (!analysed_ || !pattern_.matches(A)) {
       configure(factor);
       factor.analyzePattern(A);
-      pattern_outer_.assign(A.outerIndexPtr(), A.outerIndexPtr() + A.outerSize() + 1);
-      pattern_inner_.assign(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros());
+      pattern_.remember(A);
       analysed_ = true;
     }
     factor.factorize(A);
     if (factor.info() != Eigen::Success) {
-      analysed_ = false;  // the shifted retry below analyses afresh
-      // A semi-definite system (method.md §5: an enclosed pocket of fluid, or interface rows
-      // that coincide with divergence rows next to a clamped body) can meet an exact zero
-      // pivot. Retry once with a diagonal shift of 1e-12 of the mean diagonal, which selects
-      // one solution of a consistent system; the residual below is of the unshifted system.
-      Sparse shifted = A;
-      const Real shift = 1e-12 * A.diagonal().cwiseAbs().mean();
-      for (int i = 0; i < shifted.rows(); ++i) shifted.coeffRef(i, i) += shift;
-      factor.compute(shifted);
+      analysed_ = false;  // the shifted retry analyses afresh
+      factor.compute(with_diagonal_shift(A));
       stats.shifted = true;
     }
     if (factor.info() != Eigen::Success) {
@@ -147,7 +160,7 @@ class DirectSolver final : public LinearSolver {
   std::string name_;
   Factor factor;
   bool analysed_ = false;
-  std::vector<int> pattern_outer_, pattern_inner_;
+  SparsityPattern pattern_;
 };
 
 // LDL^T by CHOLMOD (simplicial, AMD ordering, no pivoting: the system is symmetric positive
@@ -193,10 +206,7 @@ class UpdatableLdlSolver final : public LinearSolver {
     stats.method = name();
     const bool pending = changes_pending_;
     changes_pending_ = false;
-    const bool same_pattern = factor_ && std::size_t(A.outerSize()) + 1 == pattern_outer_.size() &&
-                              std::equal(pattern_outer_.begin(), pattern_outer_.end(), A.outerIndexPtr()) &&
-                              A.nonZeros() == Eigen::Index(pattern_inner_.size()) &&
-                              std::equal(pattern_inner_.begin(), pattern_inner_.end(), A.innerIndexPtr());
+    const bool same_pattern = factor_ && pattern_.matches(A);
     bool modified = same_pattern && pending && factor_valid_ && modify_rows(A);
     if (modified) {
       solve_with_factor(b, x);
@@ -209,13 +219,7 @@ class UpdatableLdlSolver final : public LinearSolver {
     }
     if (!same_pattern) analyse(A);
     if (!factorise(A)) {
-      // A semi-definite system (method.md §5: an enclosed pocket of fluid, or interface rows
-      // that coincide with divergence rows next to a clamped body) can meet an exact zero
-      // pivot. Retry once with a diagonal shift of 1e-12 of the mean diagonal, which selects
-      // one solution of a consistent system; the residual below is of the unshifted system.
-      Sparse shifted = A;
-      const Real shift = 1e-12 * A.diagonal().cwiseAbs().mean();
-      for (int i = 0; i < shifted.rows(); ++i) shifted.coeffRef(i, i) += shift;
+      const Sparse shifted = with_diagonal_shift(A);
       analyse(shifted);
       stats.shifted = true;
       if (!factorise(shifted)) {
@@ -234,7 +238,7 @@ class UpdatableLdlSolver final : public LinearSolver {
   cholmod_common common_;
   cholmod_factor* factor_ = nullptr;
   bool factor_valid_ = false;
-  std::vector<int> pattern_outer_, pattern_inner_;
+  SparsityPattern pattern_;
   std::vector<int> permuted_;  // original index -> row of L
   std::vector<int> released_, restored_;
   bool changes_pending_ = false;
@@ -261,8 +265,7 @@ class UpdatableLdlSolver final : public LinearSolver {
     cholmod_sparse s = view(A);
     factor_ = cholmod_analyze(&s, &common_);
     if (!factor_) throw NumericalFailure("CHOLMOD could not analyse the pressure system (out of memory?)");
-    pattern_outer_.assign(A.outerIndexPtr(), A.outerIndexPtr() + A.outerSize() + 1);
-    pattern_inner_.assign(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros());
+    pattern_.remember(A);
     const int* perm = static_cast<const int*>(factor_->Perm);
     permuted_.assign(A.rows(), 0);
     for (int k = 0; k < int(A.rows()); ++k) permuted_[perm[k]] = k;
@@ -331,11 +334,17 @@ class UpdatableLdlSolver final : public LinearSolver {
 };
 }  // namespace
 
-std::unique_ptr<LinearSolver> make_linear_solver(const LinearSolverOptions& options, int unknowns, int dim) {
-  if (options.method == "cholmod")
-    return std::make_unique<DirectSolver<Eigen::CholmodDecomposition<Sparse, Eigen::Lower>>>("cholmod");
+std::string linear_solver_name(const LinearSolverOptions& options, int unknowns, int dim) {
+  if (options.method == "cholmod") return "cholmod";
   if (options.method == "ldlt" || (options.method == "auto" && dim == 2 && unknowns <= options.direct_max_unknowns))
-    return std::make_unique<UpdatableLdlSolver>();
+    return "ldlt";
+  return "pcg-" + options.preconditioner;
+}
+
+std::unique_ptr<LinearSolver> make_linear_solver(const LinearSolverOptions& options, int unknowns, int dim) {
+  const std::string name = linear_solver_name(options, unknowns, dim);
+  if (name == "cholmod") return std::make_unique<DirectSolver<Eigen::CholmodDecomposition<Sparse, Eigen::Lower>>>(name);
+  if (name == "ldlt") return std::make_unique<UpdatableLdlSolver>();
   return std::make_unique<PcgSolver>(options);
 }
 

@@ -52,5 +52,7 @@ class LinearSolver {
 // benchmarks/solvers/run.sh on the dam break); in 3-D direct fill-in explodes (CHOLMOD
 // 2.8 s a solve on the 3-D hydrostatic tank, warm-started PCG 0.1 s).
 std::unique_ptr<LinearSolver> make_linear_solver(const LinearSolverOptions& options, int unknowns, int dim);
+// The name() of the solver make_linear_solver would choose, without making it.
+std::string linear_solver_name(const LinearSolverOptions& options, int unknowns, int dim);
 
 }  // namespace iqmpm

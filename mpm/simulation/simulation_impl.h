@@ -432,8 +432,8 @@ void Simulation<dim>::solve_pressure_system() {
     for (int j = 0; j < iq_ops_.multipliers(); ++j) x[interface_offset_ + j] = previous_interface_[iq_ops_.cell_of_multiplier[j]];
   // One solver kept across solves: a direct one reuses its symbolic analysis while the
   // pattern repeats (the active-set rounds of a step).
-  auto chosen = make_linear_solver(scene_.solver, system_.size(), dim);
-  if (!pressure_solver_ || pressure_solver_->name() != chosen->name()) pressure_solver_ = std::move(chosen);
+  if (!pressure_solver_ || pressure_solver_->name() != linear_solver_name(scene_.solver, system_.size(), dim))
+    pressure_solver_ = make_linear_solver(scene_.solver, system_.size(), dim);
   LinearSolver* solver = pressure_solver_.get();
   if (system_.has_mass_block() && !solver->solves_quasi_definite())
     throw InputError(fmt::format("scene key 'coupling.solid_response' = \"stiffness\" needs the LDL^T pressure solve "
