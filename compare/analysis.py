@@ -212,6 +212,10 @@ def scalar_value(run: Run, spec: ScalarSpec) -> float | None:
     if run.metrics is None or spec.column not in run.metrics.columns:
         return None
     y = run.metrics.columns[spec.column]
+    if spec.subtract_column:
+        if spec.subtract_column not in run.metrics.columns:
+            return None
+        y = y - run.metrics.columns[spec.subtract_column] + spec.offset
     if spec.use_abs:
         y = np.abs(y)
     return reduce_series(run.metrics.t, y, spec.reducer, spec.tail)

@@ -86,3 +86,28 @@ def test_scalar_relative_error():
     assert relative_error(3.386 * 1.05, 3.386) == pytest.approx(0.05)
     assert relative_error(-1.1, -1.0) == pytest.approx(-0.1)
     assert math.isnan(relative_error(1.0, 0.0))
+
+
+def test_draft_scalar_is_level_minus_bottom_over_the_tail():
+    """The floating benchmarks' draft: still-water level - (centre - 0.05), mean over the last 40 %."""
+    from pathlib import Path
+
+    from compare.analysis import scalar_value
+    from compare.io import Metrics, Run
+    from compare.registry import lookup
+
+    spec = next(s for s in lookup("floating_block").scalars if s.name == "equilibrium_draft")
+    t = np.linspace(0.0, 5.0, 501)
+    # A decaying heave about a centre 0.496 m under a level of 0.5025 m: draft 0.0565 m.
+    centre = 0.496 + 0.01 * np.exp(-t) * np.cos(2 * np.pi * t / 0.8)
+    level = np.full_like(t, 0.5025)
+    level[t < 2.0] = 0.6  # only the tail counts
+    metrics = Metrics(Path("synthetic"), t, {"com_y": centre, "water_level": level})
+    run = Run(Path("synthetic"), "iqmpm", {"status": "ok"}, metrics)
+    tail = t >= 3.0
+    expected = float(np.mean(level[tail] - centre[tail] + 0.05))
+    assert scalar_value(run, spec) == pytest.approx(expected, rel=1e-12)
+    assert expected == pytest.approx(0.0565, abs=1e-4)
+    assert spec.reference == 0.05
+    no_level = Run(Path("synthetic"), "iqmpm", {"status": "ok"}, Metrics(Path("synthetic"), t, {"com_y": centre}))
+    assert scalar_value(no_level, spec) is None
