@@ -6,6 +6,7 @@
 
 #include <Eigen/SparseCore>
 #include <array>
+#include <cstdint>
 #include <vector>
 
 #include "core/types.h"
@@ -66,6 +67,9 @@ struct FluidQuadratureOptions {
   // real fluid cell lie inside a solid and are left to the caller (it gives them the
   // solid's velocity).
   const ParticleBins<dim>* real_fluid_bins = nullptr;
+  // With real_fluid_bins: corners that move with a solid even if fluid particles lie in
+  // their cells (coupling.solid_corner_fraction); dense over the corners, or null.
+  const std::vector<std::uint8_t>* solid_corners = nullptr;
   // Massless points that extend G^f (and the pressure unknowns) into the interface cells:
   // the IQ points' borrowed volume (coupling.borrowed_fluid = "volume"), with their bins.
   const Particles<dim>* volume_points = nullptr;
@@ -157,8 +161,11 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
   // one of its cells holds a real fluid particle: corners reached only by fluid borrowed at
   // IQ points lie inside the solid; left free they let the fluid leak through the per-cell
   // interface constraint, so the caller gives them the solid's velocity (README, coupling).
+  // So do the corners in `solid_corners`, well inside a solid: a fluid particle that strays
+  // there must not free them, or the leak feeds itself.
   auto touches_real_fluid = [&](int k) {
     if (!real_fluid_bins) return true;
+    if (options.solid_corners && (*options.solid_corners)[k]) return false;
     const IVec<dim> corner = corners.multi_index(k);
     bool found = false;
     for_each_offset<dim, 2>([&](const IVec<dim>& offset) {

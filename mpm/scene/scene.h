@@ -75,6 +75,7 @@ struct CouplingSpec {
   std::string solid_response = "mass";  // mass | stiffness: the solid's mass matrix in the coupled solve
   std::string interface = "bilateral";  // bilateral | unilateral (h >= 0: the fluid may separate)
   int max_contact_rounds = 8;           // unilateral: pressure solves per step at most
+  Real solid_corner_fraction = 0;       // a fluid corner this much inside a solid moves with it; 0 = off
 };
 
 struct SceneSpec {

@@ -313,12 +313,36 @@ void Simulation<dim>::build_fluid_operators() {
   auto scope = timer_.scope("fluid operators");
   FluidQuadratureOptions<dim> options;
   options.surface_cells_at_centre = scene_.fluid.surface_quadrature == "centre";
-  if (!iq_points_.empty() && !scene_.coupling.interior_fluid_corners) options.real_fluid_bins = &fluid_bins_;
+  if (!iq_points_.empty() && !scene_.coupling.interior_fluid_corners) {
+    options.real_fluid_bins = &fluid_bins_;
+    mark_solid_corners();
+    if (!solid_corners_.empty()) options.solid_corners = &solid_corners_;
+  }
   if (borrowed_volume_) {
     options.volume_points = &borrowed_points_;
     options.volume_point_bins = &borrowed_point_bins_;
   }
   ops_ = iqmpm::build_fluid_operators<dim>(grid_, quadrature_fluid(), quadrature_bins(), corner_momentum_, fluid_density_, slip_, options);
+}
+
+// coupling.solid_corner_fraction: the fluid corners whose N1 support is at least that
+// fraction solid. On a flat surface a corner's fraction is 0.5, and 1 - (1 - d)^2 / 2 at a
+// depth of d cells inside it (0.75 at d = 0.29).
+template <int dim>
+void Simulation<dim>::mark_solid_corners() {
+  solid_corners_.clear();
+  const Real threshold = scene_.coupling.solid_corner_fraction;
+  if (!(threshold > 0)) return;
+  const GridLayout<dim> corners = grid_.corners();
+  std::vector<Real> fraction(corners.size(), 0);
+  const Real cell_volume = grid_.cell_volume();
+  for (std::size_t p = 0; p < solid_.size(); ++p) {
+    const auto stencil = linear_stencil<dim>(grid_.to_cells(solid_.position[p]), grid_.dx);
+    const Real share = solid_.initial_volume[p] * solid_.deformation_gradient[p].determinant() / cell_volume;
+    for_each_offset<dim, 2>([&](const IVec<dim>& offset) { fraction[corners.index(stencil.base + offset)] += stencil.weight(offset) * share; });
+  }
+  solid_corners_.assign(corners.size(), 0);
+  for (int k = 0; k < corners.size(); ++k) solid_corners_[k] = fraction[k] >= threshold;
 }
 
 // §5: the stacked velocities are the solid nodes' (v_s*, after Newton) then the fluid
@@ -546,6 +570,18 @@ void Simulation<dim>::update_grid_velocities() {
     node_velocity_ = node_velocity_star_;
     for (int d = 0; d < solid_ops_.velocity_dofs(); ++d)
       for (int a = 0; a < dim; ++a) node_velocity_[solid_ops_.node_of_dof[d]][a] = velocity_next_[d * dim + a];
+    // A fluid particle that strayed inside a solid takes the solid's velocity from the
+    // corners that move with it (coupling.solid_corner_fraction).
+    if (has_fluid() && !solid_corners_.empty()) {
+      const GridLayout<dim> corners = grid_.corners();
+      for (int k = 0; k < corners.size(); ++k) {
+        if (!solid_corners_[k] || ops_.dof_of_corner[k] >= 0) continue;
+        Vec<dim> v = Vec<dim>::Zero();
+        for_each_solid_weight(grid_, corners.multi_index(k), solid_ops_.dof_of_node,
+                              [&](int dof, Real weight) { v += weight * node_velocity_[solid_ops_.node_of_dof[dof]]; });
+        corner_velocity_[k] = v;
+      }
+    }
     measure_interface_forces();
   }
 }
