@@ -139,8 +139,7 @@ class Simulation {
   std::vector<Vec<dim>> node_velocity_star_;   // v_s* after Newton, dense over nodes
   std::vector<Vec<dim>> node_velocity_;        // v_s^{n+1}, dense over nodes
   SolidOperators<dim> solid_ops_;
-  std::vector<std::uint8_t> solid_corners_;
-  std::vector<std::uint8_t> open_cells_;  // corners moving with a solid (coupling.solid_corner_fraction)
+  std::vector<std::uint8_t> solid_corners_;  // corners moving with a solid (coupling.solid_corner_fraction)
   std::vector<Real> previous_ghost_;           // p_g by dual cell, warm start
   // Interface quadrature of this step (empty: no coupling this step).
   InterfacePoints<dim> iq_points_;

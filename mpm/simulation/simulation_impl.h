@@ -313,6 +313,7 @@ void Simulation<dim>::build_fluid_operators() {
   auto scope = timer_.scope("fluid operators");
   FluidQuadratureOptions<dim> options;
   options.surface_cells_at_centre = scene_.fluid.surface_quadrature == "centre";
+  solid_corners_.clear();
   if (!iq_points_.empty() && !scene_.coupling.interior_fluid_corners) {
     options.real_fluid_bins = &fluid_bins_;
     mark_solid_corners();
