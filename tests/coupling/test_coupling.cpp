@@ -6,6 +6,7 @@
 #include <tuple>
 
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include "core/errors.h"
 #include "scene/scene.h"
@@ -29,6 +30,15 @@ double column_mean(const RunResult& result, const std::string& name, double from
     if (row[0] >= from && row[0] <= to) sum += row[column], ++count;
   return count > 0 ? sum / count : NAN;
 }
+
+// ctest runs two tests at a time on CI's 2 cores. The two long coupled runs below, at 2
+// OpenMP threads each side by side, took 250 and 310 s (measured; 25 and 57 s alone on one
+// thread), so they run on one thread.
+struct OneThread {
+  int previous = omp_get_max_threads();
+  OneThread() { omp_set_num_threads(1); }
+  ~OneThread() { omp_set_num_threads(previous); }
+};
 
 // IQ points borrow volume, not mass (coupling.borrowed_fluid = "volume"): M^f holds exactly
 // the water's mass. With lent mass the lenders' full cells weigh it a second time.
@@ -66,6 +76,7 @@ TEST(CouplingTest, SubmergedBlockBuoyancy) {
 // below 1e-3 m/s and its centre within 1 mm of where it started (measured 0.48 mm/s and
 // 0.42 mm). At dt 1 ms it fails (about 2 mm/s; README, known limits).
 TEST(CouplingTest, NeutralBlockStaysAtRest) {
+  const OneThread one_thread;
   SceneSpec scene = load_scene(scene_path("submerged_block/neutral_block.json"), {});
   scene.frame_rate = 0;
   const RunResult result = run_scene(scene, {});
@@ -94,6 +105,7 @@ TEST(CouplingTest, NeutralBlockStaysAtRest) {
 // off, water creeps under the heaving block through the corners a stray particle frees:
 // +29 %, 32 particles inside (README, coupling).
 TEST(CouplingTest, FloatingBlockFloatsAtItsArchimedesDraft) {
+  const OneThread one_thread;
   SceneSpec scene = load_scene(scene_path("floating_block/floating_block.json"), {"dx=0.02"});
   ASSERT_EQ(scene.coupling.solid_corner_fraction, 0.75);
   scene.frame_rate = 0;
