@@ -328,10 +328,9 @@ void Simulation<dim>::build_fluid_operators() {
 
 // coupling.solid_corner_fraction: the fluid corners whose N1 support is at least that
 // fraction solid. On a flat surface a corner's fraction is 0.5, and 1 - (1 - d)^2 / 2 at a
-// depth of d cells inside it (0.75 at d = 0.29).
+// depth of d cells inside it (0.75 at d = 0.29). The caller has cleared the mask.
 template <int dim>
 void Simulation<dim>::mark_solid_corners() {
-  solid_corners_.clear();
   const Real threshold = scene_.coupling.solid_corner_fraction;
   if (!(threshold > 0)) return;
   const GridLayout<dim> corners = grid_.corners();
