@@ -116,7 +116,7 @@ def _run_settings(runs: Sequence[Run]) -> list[str]:
             extra.append("linear iterations (min/mean/max): " + "/".join(
                 fmt(lin.get(k)) if isinstance(lin.get(k), (int, float)) else "n/a"
                 for k in ("min", "mean", "max")))
-        for key in ("active_cells", "volume_drift"):
+        for key in ("active_cells", "volume_drift", "particle_volume_drift"):
             if key in r.summary:
                 extra.append(f"{key}: {r.summary[key]}")
         if extra:

@@ -71,10 +71,11 @@ void print_stage_table(const Json& summary) {
   fmt::print("{:<18} {:>10.3f} {:>7.1f}%\n", "other (probes, IO)", wall - staged, 100 * (wall - staged) / wall);
   fmt::print("{:<18} {:>10.3f}\n", "wall time", wall);
   const auto& it = summary["linear_iterations"];
-  fmt::print("steps {}, particles {}, active cells {} (max {}), solver {}, CG iterations min/mean/max {}/{:.1f}/{}, volume drift {:.3e}\n",
+  fmt::print("steps {}, particles {}, active cells {} (max {}), solver {}, CG iterations min/mean/max {}/{:.1f}/{}, volume drift {:.3e} (particle measure {:.3e})\n",
              summary["steps"].get<long>(), summary["particles"].get<long>(), summary["active_cells"].get<int>(),
              summary["active_cells_max"].get<int>(), summary["linear_solver"].get<std::string>(), it["min"].get<int>(),
-             it["mean"].get<double>(), it["max"].get<int>(), summary["volume_drift"].get<double>());
+             it["mean"].get<double>(), it["max"].get<int>(), summary["volume_drift"].get<double>(),
+             summary["particle_volume_drift"].get<double>());
   const auto& solves = summary["pressure_solves"];
   if (solves["max"].get<int>() > 1)
     fmt::print("pressure solves per step (unilateral interface) mean {:.2f}, max {}, steps whose active set did not settle {}, "

@@ -78,6 +78,7 @@ Real evaluate_probe(const Simulation<dim>& sim, const ProbeSpec& probe) {
     return speed;
   }
   if (probe.type == "volume") return sim.fluid_volume();
+  if (probe.type == "particle_volume") return sim.fluid_particle_volume();
   if (probe.type == "hydrostatic_pressure_error") {
     // Relative L2 over the fluid cells of p against rho g (H - y) at the cell centre.
     const auto cells = grid.dual_cells();

@@ -44,7 +44,7 @@ ProbeSpec read_probe(JsonReader& r, int dim, const std::vector<Real>& domain_min
   ProbeSpec p;
   const bool doc = r.documenting();
   p.type = r.choice("type", std::nullopt,
-                    {"front", "water_height", "pressure", "wall_force", "max_speed", "volume", "hydrostatic_pressure_error",
+                    {"front", "water_height", "pressure", "wall_force", "max_speed", "volume", "particle_volume", "hydrostatic_pressure_error",
                      "displacement", "solid_force", "solid_com", "solid_velocity", "solid_angle"},
                     "what the probe measures (a metrics.csv column per probe)");
   const std::string default_name = p.type == "front" ? "front_x"

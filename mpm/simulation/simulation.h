@@ -84,8 +84,15 @@ class Simulation {
   Real wall_force(int axis, int side) const;
   // Pressure of the cell holding each fluid particle (for output frames).
   std::vector<Real> fluid_particle_pressure() const;
-  // Volume estimate: sum over dual cells of min(dx^dim, particle volume in the cell).
+  // Water volume: the volume of the region the water fills (what interFoam's integral of
+  // alpha measures). A dual cell whose 3^dim neighbours inside the domain all hold fluid
+  // particles is full of water (less the solid volume in it), as the projection treats it
+  // (method.md §4); any other cell holds its particles' volume, at most dx^dim.
   Real fluid_volume() const;
+  // Particle measure: sum over dual cells of min(dx^dim, particle volume in the cell). It
+  // falls when particles cluster and leave gaps inside the water even if the water's
+  // region keeps its volume (README, known limits); the position correction targets it.
+  Real fluid_particle_volume() const;
   // Dual cells holding fluid at the last step (the active pressure unknowns).
   const std::vector<int>& fluid_cells() const { return ops_.cell_of_pressure; }
 

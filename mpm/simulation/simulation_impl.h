@@ -908,17 +908,45 @@ std::vector<Real> Simulation<dim>::fluid_particle_pressure() const {
   return value_at_particles(grid_, fluid_, [&](int cell) { return fluid_pressure(cell); });
 }
 
+// Fluid particles' volume in each dual cell (layout index); particles outside the domain
+// are not counted. Solid particles count their current volume V0 det F.
+template <int dim>
+std::vector<Real> particle_volume_per_cell(const Grid<dim>& grid, const Particles<dim>& particles, bool current_volume) {
+  const auto cells = grid.dual_cells();
+  std::vector<Real> volume(cells.size(), 0);
+  for (std::size_t p = 0; p < particles.size(); ++p) {
+    const IVec<dim> c = dual_cell_of<dim>(grid.to_cells(particles.position[p]));
+    if (cells.contains(c))
+      volume[cells.index(c)] += particles.initial_volume[p] * (current_volume ? particles.deformation_gradient[p].determinant() : Real(1));
+  }
+  return volume;
+}
+
+template <int dim>
+Real Simulation<dim>::fluid_particle_volume() const {
+  const Real cell_volume = grid_.cell_volume();
+  Real total = 0;
+  for (Real v : particle_volume_per_cell(grid_, fluid_, false)) total += std::min(v, cell_volume);
+  return total;
+}
+
 template <int dim>
 Real Simulation<dim>::fluid_volume() const {
   const auto cells = grid_.dual_cells();
-  std::vector<Real> volume(cells.size(), 0);
-  for (std::size_t p = 0; p < fluid_.size(); ++p) {
-    const IVec<dim> c = dual_cell_of<dim>(grid_.to_cells(fluid_.position[p]));
-    if (cells.contains(c)) volume[cells.index(c)] += fluid_.initial_volume[p];
-  }
+  const std::vector<Real> fluid = particle_volume_per_cell(grid_, fluid_, false);
+  const std::vector<Real> solid = has_solids() ? particle_volume_per_cell(grid_, solid_, true) : std::vector<Real>(cells.size(), 0);
   const Real cell_volume = grid_.cell_volume();
   Real total = 0;
-  for (Real v : volume) total += std::min(v, cell_volume);
+  for (int k = 0; k < cells.size(); ++k) {
+    if (fluid[k] == 0) continue;
+    bool interior = true;
+    const IVec<dim> cell = cells.multi_index(k);
+    for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
+      const IVec<dim> neighbour = cell + offset - IVec<dim>::Ones();
+      if (cells.contains(neighbour) && fluid[cells.index(neighbour)] == 0) interior = false;
+    });
+    total += interior ? std::max(Real(0), cell_volume - solid[k]) : std::min(fluid[k], cell_volume);
+  }
   return total;
 }
 

@@ -2,6 +2,7 @@
 // width a and the water height at the left wall is 2a (the half particle spacing beyond
 // the outermost particles is counted), and a drop above the column does not raise it.
 #include "simulation/runner.h"
+#include "simulation/simulation.h"
 #include "test_helpers.h"
 
 namespace iqmpm {
@@ -45,6 +46,35 @@ TEST(ProbeTest, MeanWaterLevelAveragesTheGauges) {
       {});
   ASSERT_TRUE(result.ok);
   EXPECT_NEAR(first_row(result, "level"), 0.5 * (0.292 + 0.146), 1e-12);
+}
+
+// The water volume is the volume of the region the water fills; the particle measure
+// counts each cell's particle volume up to dx^dim. On the dam-break column at rest (4
+// particles a cell, 4 x 8 cells) both are the column's area. Moving one particle of an
+// interior cell into its neighbour leaves the region as it was but loses a quarter cell
+// from the particle measure (the crowded cell is capped at dx^2, the thinned one short); a
+// particle lifted off a surface cell keeps its volume as a drop, and the drop counts no
+// more once it is out of the domain.
+TEST(ProbeTest, WaterVolumeIsTheRegionTheWaterFills) {
+  const std::string path = std::string(IQMPM_BENCHMARKS_DIR) + "/dam_break/dam_break.json";
+  Simulation<2> sim(load_scene(path, {"dx=0.0365"}));
+  const double area = 0.146 * 0.292, quarter = 0.0365 * 0.0365 / 4;
+  EXPECT_NEAR(sim.fluid_volume(), area, 1e-12);
+  EXPECT_NEAR(sim.fluid_particle_volume(), area, 1e-12);
+  auto& x = sim.fluid().position;
+  const auto in_cell = [&](double cx, double cy) {
+    for (std::size_t p = 0; p < x.size(); ++p)
+      if (std::floor(x[p][0] / 0.0365) == cx && std::floor(x[p][1] / 0.0365) == cy) return p;
+    ADD_FAILURE() << "no particle in cell " << cx << ", " << cy;
+    return std::size_t(0);
+  };
+  x[in_cell(1, 3)][1] += 0.0365;  // interior cell (1, 3) -> (1, 4)
+  EXPECT_NEAR(sim.fluid_volume(), area, 1e-12);
+  EXPECT_NEAR(sim.fluid_particle_volume(), area - quarter, 1e-12);
+  x[in_cell(3, 7)][1] += 5 * 0.0365;  // off the top surface cell (3, 7) into the air
+  EXPECT_NEAR(sim.fluid_volume(), area, 1e-12) << "a detached drop keeps its volume";
+  x[in_cell(3, 12)][1] = 10;  // the drop leaves the domain: not counted
+  EXPECT_NEAR(sim.fluid_volume(), area - quarter, 1e-12);
 }
 
 }  // namespace
