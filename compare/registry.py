@@ -375,6 +375,14 @@ _register(Benchmark(
     scalars=(
         ScalarSpec("equilibrium_com_y", "m", "centre height, mean over last 40 %", reference=0.5028,
                    reference_label="Archimedes", column="com_y", reducer="mean_tail", tail=0.4),
+        # The cube (side 0.2 m, half the water's density) tips over, but any plane through
+        # its centre halves it: at equilibrium the centre sits at the still-water level in
+        # any orientation, so level - centre + 0.1 m is the draft of the upright cube.
+        ScalarSpec("equilibrium_draft", "m", "draft: still-water level - (centre - 0.1 m), mean over last 40 %",
+                   reference=0.1, reference_label="Archimedes", column="water_level",
+                   subtract_column="com_y", offset=0.1, reducer="mean_tail", tail=0.4),
+        ScalarSpec("volume_drift", "-", "relative volume drift", reference=0.0,
+                   reference_label="0", summary_key="volume_drift"),
     ),
     primary=("com_y", "archimedes"),
     quick=False,

@@ -28,26 +28,33 @@ Real evaluate_probe(const Simulation<dim>& sim, const ProbeSpec& probe) {
   if (probe.type == "water_height") {
     // Top of the water column connected to the floor at each gauge (one, or one every dx
     // from position to `to`, each over half a cell either side): splashes and drops above
-    // an empty cell do not count. One pass over the particles fills every gauge's rows.
+    // an empty cell do not count. In 3-D a gauge is a row of columns, one per cell along
+    // the third axis, each with its own top: the highest particle over the whole row would
+    // read the crest of any wave. One pass over the particles fills every column's rows.
     const bool range = probe.position_to != kNoRange;
     const Real half_width = range ? Real(0.5) * grid.dx : (probe.band < 0 ? grid.dx : probe.band);
     const int gauges = range ? int(std::floor((probe.position_to - probe.position) / grid.dx + 1e-9)) + 1 : 1;
+    const int across = dim == 3 ? grid.cells[2] : 1;  // columns per gauge
     const int rows = grid.cells[up];
-    std::vector<Real> row_top(std::size_t(gauges) * rows, -std::numeric_limits<Real>::infinity());
+    const int columns = gauges * across;
+    std::vector<Real> row_top(std::size_t(columns) * rows, -std::numeric_limits<Real>::infinity());
     for (const auto& x : fluid.position) {
       const int g = range ? int(std::lround((x[0] - probe.position) / grid.dx)) : 0;
       if (g < 0 || g >= gauges || std::abs(x[0] - (probe.position + g * grid.dx)) > half_width) continue;
+      int column = g;
+      if constexpr (dim == 3)
+        column = g * across + std::min(across - 1, std::max(0, int(std::floor((x[2] - grid.origin[2]) / grid.dx))));
       const int row = std::min(rows - 1, std::max(0, int(std::floor((x[up] - grid.origin[up]) / grid.dx))));
-      Real& top = row_top[std::size_t(g) * rows + row];
+      Real& top = row_top[std::size_t(column) * rows + row];
       top = std::max(top, x[up]);
     }
     Real sum = 0;
-    for (int g = 0; g < gauges; ++g) {
+    for (int c = 0; c < columns; ++c) {
       Real top = -std::numeric_limits<Real>::infinity();
-      for (int row = 0; row < rows && std::isfinite(row_top[std::size_t(g) * rows + row]); ++row) top = row_top[std::size_t(g) * rows + row];
+      for (int row = 0; row < rows && std::isfinite(row_top[std::size_t(c) * rows + row]); ++row) top = row_top[std::size_t(c) * rows + row];
       sum += std::isfinite(top) ? top + half_spacing - grid.origin[up] : Real(0);
     }
-    return sum / gauges;
+    return sum / columns;
   }
   if (probe.type == "pressure") {
     // Mean of the 2^dim dual cells nearest the point (their centres bracket it, shifted

@@ -48,6 +48,21 @@ TEST(ProbeTest, MeanWaterLevelAveragesTheGauges) {
   EXPECT_NEAR(first_row(result, "level"), 0.5 * (0.292 + 0.146), 1e-12);
 }
 
+// In 3-D a gauge is a row of columns along z, each with its own top: water 0.5 m deep
+// with a ridge 0.125 m high over a quarter of the tank's z extent reads 0.5 + 0.125 / 4 m
+// (the highest particle over the whole row would read the ridge, 0.625 m), and a drop
+// above the surface does not count.
+TEST(ProbeTest, WaterHeightIn3DAveragesTheColumnsAcross) {
+  const std::string path = std::string(IQMPM_BENCHMARKS_DIR) + "/hydrostatic/hydrostatic_3d.json";
+  const RunResult result = run_scene(
+      load_scene(path, {"dx=0.125", "end_time=0.001", "domain.max=[1,1,1]",
+                        R"(fluid.shapes=[{"type":"box","min":[0,0,0],"max":[1,0.5,1]},{"type":"box","min":[0,0.5,0],"max":[1,0.625,0.25]},{"type":"box","min":[0,0.875,0.5],"max":[1,1,0.625]}])",
+                        R"(probes=[{"type":"water_height","name":"level","position":0.0625,"to":0.9375}])"}),
+      {});
+  ASSERT_TRUE(result.ok);
+  EXPECT_NEAR(first_row(result, "level"), 0.5 + 0.125 / 4, 1e-12);
+}
+
 // The water volume is the volume of the region the water fills; the particle measure
 // counts each cell's particle volume up to dx^dim. On the dam-break column at rest (4
 // particles a cell, 4 x 8 cells) both are the column's area. Moving one particle of an
