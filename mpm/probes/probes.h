@@ -29,12 +29,15 @@ Real evaluate_probe(const Simulation<dim>& sim, const ProbeSpec& probe) {
     // Top of the water column connected to the floor at each gauge (one, or one every dx
     // from position to `to`, each over half a cell either side): splashes and drops above
     // an empty cell do not count. In 3-D a gauge is a row of columns, one per cell along
-    // the third axis, each with its own top: the highest particle over the whole row would
+    // the other horizontal axis, each with its own top: the highest particle over the whole row would
     // read the crest of any wave. One pass over the particles fills every column's rows.
     const bool range = probe.position_to != kNoRange;
     const Real half_width = range ? Real(0.5) * grid.dx : (probe.band < 0 ? grid.dx : probe.band);
     const int gauges = range ? int(std::floor((probe.position_to - probe.position) / grid.dx + 1e-9)) + 1 : 1;
-    const int across = dim == 3 ? grid.cells[2] : 1;  // columns per gauge
+    // In 3-D: the horizontal axis that is not the gauges' first axis, and the columns per gauge.
+    const int across_axis = up == 1 ? 2 : 1;
+    int across = 1;
+    if constexpr (dim == 3) across = grid.cells[across_axis];
     const int rows = grid.cells[up];
     const int columns = gauges * across;
     std::vector<Real> row_top(std::size_t(columns) * rows, -std::numeric_limits<Real>::infinity());
@@ -43,7 +46,7 @@ Real evaluate_probe(const Simulation<dim>& sim, const ProbeSpec& probe) {
       if (g < 0 || g >= gauges || std::abs(x[0] - (probe.position + g * grid.dx)) > half_width) continue;
       int column = g;
       if constexpr (dim == 3)
-        column = g * across + std::min(across - 1, std::max(0, int(std::floor((x[2] - grid.origin[2]) / grid.dx))));
+        column = g * across + std::min(across - 1, std::max(0, int(std::floor((x[across_axis] - grid.origin[across_axis]) / grid.dx))));
       const int row = std::min(rows - 1, std::max(0, int(std::floor((x[up] - grid.origin[up]) / grid.dx))));
       Real& top = row_top[std::size_t(column) * rows + row];
       top = std::max(top, x[up]);

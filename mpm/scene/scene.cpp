@@ -61,7 +61,7 @@ ProbeSpec read_probe(JsonReader& r, int dim, const std::vector<Real>& domain_min
   }
   if (p.type == "water_height" || doc) {
     p.position = r.number("position", std::nullopt, -kInf, kInf, "water_height: first-axis coordinate of the gauge (m)");
-    p.band = r.number("half_width", -1, -1, kInf, "water_height: particles within this distance of the gauge count (m); -1 = one cell. The height is the top of the column connected to the floor (splashes above an empty cell do not count); in 3-D the gauge is a row of such columns, one per cell along z, and the height their mean");
+    p.band = r.number("half_width", -1, -1, kInf, "water_height: particles within this distance of the gauge count (m); -1 = one cell. The height is the top of the column connected to the floor (splashes above an empty cell do not count); in 3-D the gauge is a row of such columns, one per cell along the other horizontal axis (z when y is up), and the height their mean");
     p.position_to = r.number("to", kNoRange, -kInf, kInf,
                              "water_height: when given, the column is the mean of gauges every dx from position to this "
                              "coordinate, each over half a cell either side (a still-water level that waves do not bias)");

@@ -908,8 +908,8 @@ std::vector<Real> Simulation<dim>::fluid_particle_pressure() const {
   return value_at_particles(grid_, fluid_, [&](int cell) { return fluid_pressure(cell); });
 }
 
-// Fluid particles' volume in each dual cell (layout index); particles outside the domain
-// are not counted. Solid particles count their current volume V0 det F.
+// Particles' volume in each dual cell (layout index): V0, or with current_volume the
+// current volume V0 det F (solids); particles outside the domain are not counted.
 template <int dim>
 std::vector<Real> particle_volume_per_cell(const Grid<dim>& grid, const Particles<dim>& particles, bool current_volume) {
   const auto cells = grid.dual_cells();
