@@ -182,12 +182,68 @@ def reduce_series(t: np.ndarray, y: np.ndarray, reducer: str, tail: float = 0.5)
             return float(s.y[-1])
         window = slice(up[0] + 1, up[-1] + 1)
         return float(np.trapz(y_tail[window], t_tail[window]) / (t_tail[up[-1]] - t_tail[up[0] + 1]))
+    if reducer == "decay":
+        return decay_ratio(s.t, s.y, tail)
+    if reducer == "early_period":
+        return early_period(s.t, s.y, tail)
     if reducer in ("period", "frequency"):
         period = mean_period(s.t, s.y)
         if reducer == "period":
             return period
         return 1.0 / period if period > 0 else math.nan
     raise CompareError(f"unknown scalar reducer '{reducer}'")
+
+
+def half_cycles(t: np.ndarray, y: np.ndarray, tail: float = 0.4) -> tuple[np.ndarray, np.ndarray]:
+    """Half-cycles of a decaying oscillation: the largest |y - equilibrium| of each, in
+    order, and the times at which each after the first began (the zero crossing).
+
+    The equilibrium is the mean over the last ``tail`` fraction of the run. A half-cycle ends
+    when the deviation crosses zero and then reaches beyond 5 % of the largest deviation on
+    the other side, so jitter about the equilibrium does not split one half-cycle in two.
+    """
+    start = t[-1] - tail * (t[-1] - t[0])
+    z = y - np.mean(y[t >= start])
+    hysteresis = 0.05 * float(np.max(np.abs(z)))
+    amplitudes: list[float] = []
+    starts: list[float] = []
+    sign = 1.0 if z[0] >= 0 else -1.0
+    current = 0.0
+    crossing = float(t[0])
+    for i, value in enumerate(z):
+        if i > 0 and sign * value <= 0 < sign * z[i - 1]:  # the latest crossing, interpolated
+            crossing = float(t[i - 1] - z[i - 1] * (t[i] - t[i - 1]) / (value - z[i - 1]))
+        if sign * value < -hysteresis:  # well over on the other side: a new half-cycle
+            amplitudes.append(current)
+            starts.append(crossing)
+            sign, current = -sign, 0.0
+        current = max(current, sign * value)
+    amplitudes.append(current)
+    return np.asarray(amplitudes), np.asarray(starts)
+
+
+def half_cycle_amplitudes(t: np.ndarray, y: np.ndarray, tail: float = 0.4) -> np.ndarray:
+    """Largest |y - equilibrium| of each half-cycle (see ``half_cycles``)."""
+    return half_cycles(t, y, tail)[0]
+
+
+def early_period(t: np.ndarray, y: np.ndarray, tail: float = 0.4, periods: int = 2) -> float:
+    """Mean period over the first ``periods`` periods after the release, from the half-cycles'
+    zero crossings (NaN with fewer); late sloshing and noise do not enter."""
+    starts = half_cycles(t, y, tail)[1]
+    if len(starts) < 2 * periods + 1:
+        return math.nan
+    return float((starts[2 * periods] - starts[0]) / periods)
+
+
+def decay_ratio(t: np.ndarray, y: np.ndarray, tail: float = 0.4, periods: int = 2) -> float:
+    """Amplitude ratio per period of a decaying oscillation: (A_2n / A_0)^(1/n) over the first
+    n = ``periods`` periods, A_k the k-th half-cycle's amplitude (the first is the release);
+    NaN when the run has fewer half-cycles."""
+    amplitudes = half_cycle_amplitudes(t, y, tail)
+    if len(amplitudes) < 2 * periods + 1 or amplitudes[0] <= 0:
+        return math.nan
+    return float((amplitudes[2 * periods] / amplitudes[0]) ** (1.0 / periods))
 
 
 def mean_period(t: np.ndarray, y: np.ndarray) -> float:

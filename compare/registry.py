@@ -74,7 +74,9 @@ class ScalarSpec:
     ``reducer``: "first" (first sample at t > 0), "last", "max", "mean_tail" (mean over the last
     ``tail`` fraction of the run), "mean_periods" (time average over the whole periods of the
     tail: the equilibrium of a decaying oscillation), "period" (mean period between upward mean crossings over
-    the run after ``skip``), "frequency" (1/period). With ``subtract_column`` the series reduced
+    the run after ``skip``), "frequency" (1/period), "decay" (amplitude ratio per period of a
+    decaying oscillation about the mean of the last ``tail`` fraction, over its first two periods),
+    "early_period" (its mean period over the same two periods). With ``subtract_column`` the series reduced
     is ``column - subtract_column + offset`` (e.g. a draft: water level - centre height + half
     the body's height).
     """
@@ -331,10 +333,16 @@ def _floating(name: str, title: str, equilibrium_com_y: float, draft: float, rol
         ScalarSpec("equilibrium_draft", "m", "draft: still-water level - block bottom, mean over last 40 %",
                    reference=draft, reference_label="Archimedes", column="water_level",
                    subtract_column="com_y", offset=0.05, reducer="mean_tail", tail=0.4),
-        ScalarSpec("heave_period", "s", "heave period", column="com_y", reducer="period"),
+        ScalarSpec("heave_period", "s", "heave period, first two periods", column="com_y",
+                   reducer="early_period", tail=0.4),
+        ScalarSpec("heave_decay", "-", "heave amplitude ratio per period, first two periods",
+                   column="com_y", reducer="decay", tail=0.4),
     ]
     if roll:
-        scalars.append(ScalarSpec("roll_period", "s", "roll period", column="angle", reducer="period"))
+        scalars.append(ScalarSpec("roll_period", "s", "roll period, first two periods", column="angle",
+                                  reducer="early_period", tail=0.4))
+        scalars.append(ScalarSpec("roll_decay", "-", "roll amplitude ratio per period, first two periods",
+                                  column="angle", reducer="decay", tail=0.4))
     scalars.append(ScalarSpec("volume_drift", "-", "relative volume drift", reference=0.0,
                               reference_label="0", summary_key="volume_drift"))
     return Benchmark(

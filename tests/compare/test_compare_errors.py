@@ -111,3 +111,49 @@ def test_draft_scalar_is_level_minus_bottom_over_the_tail():
     assert spec.reference == 0.05
     no_level = Run(Path("synthetic"), "iqmpm", {"status": "ok"}, Metrics(Path("synthetic"), t, {"com_y": centre}))
     assert scalar_value(no_level, spec) is None
+
+
+def test_decay_ratio_of_a_damped_oscillation():
+    """The floating benchmarks' heave_decay / roll_decay: amplitude ratio per period, and
+    heave_period / roll_period over the same first two periods.
+
+    For y = eq + A exp(-a t) cos(w t) it is exp(-a T) (T = 2 pi / w), to the shift of the
+    extrema by atan(a / w) / w (0.2 % here). Jitter of 0.5 % of A about the equilibrium
+    must not split half-cycles (the hysteresis), a run with fewer than two periods gives
+    NaN, and a growing oscillation a ratio above 1.
+    """
+    from pathlib import Path
+
+    from compare.analysis import half_cycle_amplitudes, scalar_value
+    from compare.io import Metrics, Run
+    from compare.registry import lookup
+
+    spec = next(s for s in lookup("floating_block").scalars if s.name == "heave_decay")
+    period_spec = next(s for s in lookup("floating_block").scalars if s.name == "heave_period")
+    a, period = 0.2, 1.0
+    t = np.linspace(0.0, 20.0, 20001)
+    rng = np.random.default_rng(3)
+    centre = 0.504 + 0.016 * np.exp(-a * t) * np.cos(2 * np.pi * t / period)
+    noisy = centre + 0.005 * 0.016 * rng.standard_normal(t.size)
+    for y, rel in ((centre, 0.003), (noisy, 0.01)):
+        run = Run(Path("synthetic"), "iqmpm", {"status": "ok"}, Metrics(Path("synthetic"), t, {"com_y": y}))
+        assert scalar_value(run, spec) == pytest.approx(math.exp(-a * period), rel=rel)
+        assert scalar_value(run, period_spec) == pytest.approx(period, rel=rel)
+    # Late sloshing at another period (here 0.6 s, after 4 s) does not change the early
+    # period; the mean over the whole run would.
+    sloshing = centre + np.where(t > 4.0, 0.004 * np.sin(2 * np.pi * t / 0.6), 0.0)
+    run = Run(Path("synthetic"), "iqmpm", {"status": "ok"}, Metrics(Path("synthetic"), t, {"com_y": sloshing}))
+    assert scalar_value(run, period_spec) == pytest.approx(period, rel=0.003)
+    # Five periods from a crest cross the equilibrium ten times: eleven half-cycles, the
+    # amplitudes falling; with the jitter, the same count (no crossing is split).
+    early = t < 5.0
+    for y in (centre, noisy):
+        amplitudes = half_cycle_amplitudes(t[early], y[early])
+        assert len(amplitudes) == 11
+        assert np.all(np.diff(amplitudes) < 0)
+    short = t < 1.2
+    run = Run(Path("synthetic"), "iqmpm", {"status": "ok"}, Metrics(Path("synthetic"), t[short], {"com_y": centre[short]}))
+    assert math.isnan(scalar_value(run, spec))
+    growing = 0.504 + 0.016 * np.exp(0.1 * t) * np.cos(2 * np.pi * t / period)
+    run = Run(Path("synthetic"), "iqmpm", {"status": "ok"}, Metrics(Path("synthetic"), t, {"com_y": growing}))
+    assert scalar_value(run, spec) > 1.0
