@@ -57,6 +57,18 @@ struct FluidOperators {
   int pressure_unknowns() const { return int(cell_of_pressure.size()); }
 };
 
+// A dual cell is interior when no neighbour in its 3^dim block is an empty cell inside the
+// domain (`holds_fluid` by layout index): it is then full of fluid (method.md §4).
+template <int dim, class HoldsFluid>
+bool is_interior_cell(const GridLayout<dim>& cells, const IVec<dim>& cell, HoldsFluid holds_fluid) {
+  bool interior = true;
+  for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
+    const IVec<dim> neighbour = cell + offset - IVec<dim>::Ones();
+    if (cells.contains(neighbour) && !holds_fluid(cells.index(neighbour))) interior = false;
+  });
+  return interior;
+}
+
 // How the fluid quadrature is laid out near free surfaces and solids.
 template <int dim>
 struct FluidQuadratureOptions {
@@ -106,15 +118,9 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
   // domain: it is then full of fluid and the exact one-point rule applies (method.md §4).
   const int np = ops.pressure_unknowns();
   ops.interior.assign(np, 0);
-  for (int row = 0; row < np; ++row) {
-    const IVec<dim> cell = cells.multi_index(ops.cell_of_pressure[row]);
-    bool interior = true;
-    for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
-      const IVec<dim> neighbour = cell + offset - IVec<dim>::Ones();
-      if (cells.contains(neighbour) && points_in(cells.index(neighbour)) == 0) interior = false;
-    });
-    ops.interior[row] = interior;
-  }
+  for (int row = 0; row < np; ++row)
+    ops.interior[row] = is_interior_cell<dim>(cells, cells.multi_index(ops.cell_of_pressure[row]),
+                                              [&](int k) { return points_in(k) > 0; });
 
   // M^f from the same quadrature as G^f (method.md §4): exact in interior cells, the
   // particles elsewhere. Using one quadrature for both keeps fluid at rest in hydrostatic

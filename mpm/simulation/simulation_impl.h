@@ -645,6 +645,20 @@ void Simulation<dim>::keep_particles_in_domain(Particles<dim>& particles, const 
   last_.wall_clamps += clamps;
 }
 
+// Particles' volume in each dual cell (layout index): V0, or with current_volume the
+// current volume V0 det F (solids); particles outside the domain are not counted.
+template <int dim>
+std::vector<Real> particle_volume_per_cell(const Grid<dim>& grid, const Particles<dim>& particles, bool current_volume) {
+  const auto cells = grid.dual_cells();
+  std::vector<Real> volume(cells.size(), 0);
+  for (std::size_t p = 0; p < particles.size(); ++p) {
+    const IVec<dim> c = dual_cell_of<dim>(grid.to_cells(particles.position[p]));
+    if (cells.contains(c))
+      volume[cells.index(c)] += particles.initial_volume[p] * (current_volume ? particles.deformation_gradient[p].determinant() : Real(1));
+  }
+  return volume;
+}
+
 // Optional position correction (method.md §3 step 6): particles drift into clusters and
 // gaps because the projection makes the grid velocity divergence-free, not the particle
 // flow. One extra solve with the same operators finds the smallest (mass-weighted)
@@ -667,10 +681,7 @@ void Simulation<dim>::correct_particle_positions() {
   const int nv = ops.velocity_dofs(), np = ops.pressure_unknowns();
   const Real cell_volume = grid_.cell_volume();
   const GridLayout<dim> cells = grid_.dual_cells();
-  std::vector<Real> solid_volume(has_solids() ? cells.size() : 0, 0);
-  for (std::size_t p = 0; p < solid_.size(); ++p)
-    solid_volume[cells.index(dual_cell_of<dim>(grid_.to_cells(solid_.position[p])))] +=
-        solid_.initial_volume[p] * solid_.deformation_gradient[p].determinant();
+  const std::vector<Real> solid_volume = has_solids() ? particle_volume_per_cell(grid_, solid_, true) : std::vector<Real>();
   // Faces between a fluid cell and a (mostly) solid cell without fluid: no displacement.
   std::vector<Triplet> solid_face_rows;
   int solid_faces = 0;
@@ -908,20 +919,6 @@ std::vector<Real> Simulation<dim>::fluid_particle_pressure() const {
   return value_at_particles(grid_, fluid_, [&](int cell) { return fluid_pressure(cell); });
 }
 
-// Particles' volume in each dual cell (layout index): V0, or with current_volume the
-// current volume V0 det F (solids); particles outside the domain are not counted.
-template <int dim>
-std::vector<Real> particle_volume_per_cell(const Grid<dim>& grid, const Particles<dim>& particles, bool current_volume) {
-  const auto cells = grid.dual_cells();
-  std::vector<Real> volume(cells.size(), 0);
-  for (std::size_t p = 0; p < particles.size(); ++p) {
-    const IVec<dim> c = dual_cell_of<dim>(grid.to_cells(particles.position[p]));
-    if (cells.contains(c))
-      volume[cells.index(c)] += particles.initial_volume[p] * (current_volume ? particles.deformation_gradient[p].determinant() : Real(1));
-  }
-  return volume;
-}
-
 template <int dim>
 Real Simulation<dim>::fluid_particle_volume() const {
   const Real cell_volume = grid_.cell_volume();
@@ -939,12 +936,7 @@ Real Simulation<dim>::fluid_volume() const {
   Real total = 0;
   for (int k = 0; k < cells.size(); ++k) {
     if (fluid[k] == 0) continue;
-    bool interior = true;
-    const IVec<dim> cell = cells.multi_index(k);
-    for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
-      const IVec<dim> neighbour = cell + offset - IVec<dim>::Ones();
-      if (cells.contains(neighbour) && fluid[cells.index(neighbour)] == 0) interior = false;
-    });
+    const bool interior = is_interior_cell<dim>(cells, cells.multi_index(k), [&](int j) { return fluid[j] > 0; });
     total += interior ? std::max(Real(0), cell_volume - solid[k]) : std::min(fluid[k], cell_volume);
   }
   return total;
