@@ -1,8 +1,9 @@
 // Interface quadrature (method.md §3 step 3, §4): the points where the free-slip coupling
 // condition (v_f - v_s) . n = 0 is imposed, one multiplier h per dual cell holding them.
 //
-//  * IQ points: solid particles within 0.5 dx of some fluid particle (found through the
-//    particle bins: a neighbour lies in the 3^dim block of dual cells around the particle).
+//  * IQ points: solid particles within coupling.interface_reach (default 0.5 dx, the
+//    reference code's) of some fluid particle (found through the particle bins: a neighbour
+//    lies in the 3^dim block of dual cells around the particle).
 //  * Borrowed fluid: every fluid particle shares its volume equally among itself and its
 //    solid neighbours, so each IQ point is also a fluid quadrature point of G^f: the
 //    divergence constraint reaches into the interface cells. By default only the volume is
@@ -30,7 +31,7 @@ namespace iqmpm {
 template <int dim>
 struct InterfacePoints {
   std::vector<int> solid_particle;       // IQ point q -> its solid particle
-  std::vector<std::vector<int>> lenders; // fluid particles within 0.5 dx of q
+  std::vector<std::vector<int>> lenders; // fluid particles within the reach of q
   std::vector<int> share_count;          // per fluid particle: 1 + number of solid neighbours
   bool empty() const { return solid_particle.empty(); }
   int size() const { return int(solid_particle.size()); }
@@ -38,14 +39,17 @@ struct InterfacePoints {
 
 template <int dim>
 InterfacePoints<dim> find_interface_points(const Grid<dim>& grid, const Particles<dim>& fluid,
-                                           const ParticleBins<dim>& fluid_bins, const Particles<dim>& solid) {
+                                           const ParticleBins<dim>& fluid_bins, const Particles<dim>& solid,
+                                           Real reach_in_dx = 0.5) {
   InterfacePoints<dim> iq;
   iq.share_count.assign(fluid.size(), 1);
   if (fluid.empty() || solid.empty()) return iq;
   const GridLayout<dim> cells = grid.dual_cells();
-  // Exact ties (a regular fluid lattice next to a regular solid one sit exactly dx/2 apart)
-  // count as neighbours.
-  const Real reach2 = std::pow(Real(0.5) * grid.dx * (1 + 1e-9), 2);
+  // Seeded lattices of two particles a cell meet exactly dx/2 apart: such ties count. At a
+  // reach of exactly dx/2 (the reference code's, the default) a sub-micron motion breaks
+  // them, and rows of IQ points drop out and come back step by step; 0.6 dx keeps the first
+  // layer and stays below the diagonal neighbours at dx/sqrt(2) (coupling.interface_reach).
+  const Real reach2 = std::pow(reach_in_dx * grid.dx * (1 + 1e-9), 2);
   for (std::size_t s = 0; s < solid.size(); ++s) {
     const Vec<dim>& xs = solid.position[s];
     const IVec<dim> home = dual_cell_of<dim>(grid.to_cells(xs));

@@ -144,6 +144,14 @@ SolidSpec read_solid(JsonReader& r, int dim, int index) {
   s.ghost_stiffness = r.number("ghost_stiffness", s.ghost_stiffness, 0, kInf,
                                "lambda_g (Pa), stiffness of the air-like ghost matrix carried by the solid (method.md §1, §9); "
                                "default 1e5 Pa, about air's bulk modulus", true);
+  s.initial_pressure = r.choice("initial_pressure", s.initial_pressure, {"zero", "hydrostatic"},
+                                "the ghost matrix's starting pressure: zero = unstressed; hydrostatic = the still "
+                                "water's rho_f |g| (level - height) below the top of the fluid particles, for a body at "
+                                "rest in still water, wetted all round below the water line (a neutrally buoyant block, "
+                                "a floating block): it then starts in balance with the water instead of being squeezed "
+                                "through its soft ghost matrix in the first steps (measured: the neutral block's "
+                                "first-step interface force 175 instead of 71 N/m against its 196 N/m weight; README, "
+                                "coupling). Not for a body wetted on one side only, such as a gate holding water back");
   s.initial_velocity = r.vector("initial_velocity", std::vector<Real>(dim, 0), dim, "initial velocity of the body (m/s)");
   for (auto& shape : r.objects("shapes", "regions the body fills; a particle is seeded where any shape contains it"))
     s.shapes.push_back(read_shape(shape, dim));
@@ -245,7 +253,7 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
     JsonReader coupling = root.object("coupling", "fluid-solid interface (method.md §3 step 3, §4)");
     scene.coupling.borrowed_fluid = coupling.choice(
         "borrowed_fluid", scene.coupling.borrowed_fluid, {"volume", "mass", "none"},
-        "what the IQ points borrow from their fluid neighbours (within 0.5 dx) to join the fluid quadrature: "
+        "what the IQ points borrow from their fluid neighbours (within coupling.interface_reach) to join the fluid quadrature: "
         "volume = a share of their volume, so G^f reaches into the interface cells, but no mass (the fluid keeps "
         "its weight where it is); mass = mass and volume, the lenders keep the rest (the reference code's choice; "
         "measured: the lent water is weighed twice next to full cells, buoyancy 3-4 % low); none = IQ points only "
@@ -282,9 +290,21 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
         "dx inside it) moves with the solid even when fluid particles have strayed into its cells; otherwise a "
         "stray particle frees its cell's corners and the fluid leaks on through the per-cell interface constraint. "
         "Measured at 0.75: floating block drafts +1.5 / +3.0 / +5.6 % (heave, roll, light) instead of +13 / +19 / "
-        "+32 %, but the neutrally buoyant block at rest drifts at 1.8 mm/s after 1 s instead of 0.5 (README, "
-        "coupling), so it is not the default. Accepted: 0 (off: only corners touching no fluid particle's cell move "
+        "+32 %; with the default reach and an unstressed ghost matrix the neutrally buoyant block at rest then drifts "
+        "at 1.8 mm/s after 1 s instead of 0.5, with interface_reach 0.6 and initial_pressure hydrostatic it rests "
+        "(0.54 mm/s): the floating and neutral-block scenes use all three (README, coupling). Accepted: 0 (off: only "
+        "corners touching no fluid particle's cell move "
         "with the solid) or above 0.5 up to 1");
+    scene.coupling.interface_reach = coupling.number(
+        "interface_reach", scene.coupling.interface_reach, 0.5, 0.7,
+        "IQ points are the solid particles within this distance (in dx) of a fluid particle (method.md §3 step 3; "
+        "0.5 is the reference code's). Seeded lattices meet exactly 0.5 dx apart, so at 0.5 sub-micron motions break "
+        "those ties: rows of IQ points drop out and come back, and a clamped block's interface force flickers (std "
+        "18.5 N/m on 196 over 0.1-0.3 s; 0.39 N/m at 0.6). 0.6 keeps the first particle layer coupled and stays below the diagonal "
+        "neighbours at 0.71 dx; the floating and neutral-block scenes use it. Not the default: a water layer sliding "
+        "on a clamped plate then gives it 5.8 % of its momentum in 0.2 s (0.2 % at 0.5, where the sliding layer's ties "
+        "are mostly broken), through the borrowed volume where the pressure varies along the plate (README, "
+        "coupling). The elastic gate is the same at 0.6 (tip peak -16.1 %). Accepted: 0.5 to 0.7");
     if (scene.coupling.solid_corner_fraction > 0 && scene.coupling.solid_corner_fraction <= 0.5 && !docs)
       throw InputError(fmt::format("scene key 'coupling.solid_corner_fraction' = {}: accepted 0 (off) or above 0.5 up to 1 "
                                    "(at 0.5 or below, corners on a solid's surface would move with it)",

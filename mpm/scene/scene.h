@@ -53,6 +53,7 @@ struct SolidSpec {
   Real density = 1000;
   Real mu = 0, lambda = 0;                // Lame parameters (from E, nu when given so)
   Real ghost_stiffness = 1e5;             // lambda_g (Pa)
+  std::string initial_pressure = "zero";  // zero | hydrostatic: the ghost matrix's starting pressure
   std::vector<ShapeSpec> shapes;
   std::vector<ShapeSpec> clamps;          // nodes whose centre lies inside are fixed
   std::vector<Real> initial_velocity;
@@ -76,6 +77,7 @@ struct CouplingSpec {
   std::string interface = "bilateral";  // bilateral | unilateral (h >= 0: the fluid may separate)
   int max_contact_rounds = 8;           // unilateral: pressure solves per step at most
   Real solid_corner_fraction = 0;       // a fluid corner this much inside a solid moves with it; 0 = off
+  Real interface_reach = 0.5;           // IQ points: solid particles this close (in dx) to a fluid particle
 };
 
 struct SceneSpec {

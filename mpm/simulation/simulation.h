@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -105,6 +106,7 @@ class Simulation {
 
  private:
   void seed_solids();
+  Real initial_pressure(const SolidSpec& spec, const Vec<dim>& x, const std::string& key);
   void sort_particles();
   void particles_to_grid(Real dt);
   void solve_solid_momentum(Real dt);
@@ -129,6 +131,7 @@ class Simulation {
   Vec<dim> gravity_;
   int up_axis_ = 1;
   Real fluid_density_ = 1000;
+  std::optional<Real> still_water_level_;  // solids[].initial_pressure = hydrostatic
   std::array<std::array<bool, 2>, dim> slip_{};
   Particles<dim> fluid_;
   ParticleBins<dim> fluid_bins_;
