@@ -81,8 +81,9 @@ Real Simulation<dim>::initial_pressure(const SolidSpec& spec, const Vec<dim>& x,
   return pressure;
 }
 
-// Solid particles: F = I, J_g from solids[].initial_pressure (1, unstressed, by default), one body index per
-// solid; clamped nodes from the clamp regions; markers of the displacement probes.
+// Solid particles: F = I, J_g from solids[].initial_pressure (1, unstressed, by default), one
+// body index per solid; clamped nodes from the clamp regions; markers of the displacement
+// probes.
 template <int dim>
 void Simulation<dim>::seed_solids() {
   const GridLayout<dim> nodes = grid_.nodes();
