@@ -8,7 +8,6 @@
 #include <cstdint>
 #include <map>
 #include <memory>
-#include <optional>
 #include <string>
 #include <vector>
 
@@ -106,7 +105,9 @@ class Simulation {
 
  private:
   void seed_solids();
-  Real initial_pressure(const SolidSpec& spec, const Vec<dim>& x, const std::string& key);
+  Real still_water_level(const std::string& key) const;
+  // Height of x against gravity (along the up axis).
+  Real height(const Vec<dim>& x) const { return gravity_[up_axis_] < 0 ? x[up_axis_] : -x[up_axis_]; }
   void sort_particles();
   void particles_to_grid(Real dt);
   void solve_solid_momentum(Real dt);
@@ -131,7 +132,6 @@ class Simulation {
   Vec<dim> gravity_;
   int up_axis_ = 1;
   Real fluid_density_ = 1000;
-  std::optional<Real> still_water_level_;  // solids[].initial_pressure = hydrostatic
   std::array<std::array<bool, 2>, dim> slip_{};
   Particles<dim> fluid_;
   ParticleBins<dim> fluid_bins_;

@@ -55,35 +55,25 @@ Simulation<dim>::Simulation(const SceneSpec& scene) : scene_(scene) {
   seed_solids();
 }
 
-// solids[].initial_pressure: the ghost matrix's starting pressure at x. "hydrostatic" is the
-// still water's rho_f |g| (level - height), level the top of the fluid particles (the highest
-// one plus half a particle spacing): a body at rest in still water then starts in balance
-// with it. Starting unstressed instead, the water squeezes the body through its soft ghost
-// matrix in the first steps: a neutrally buoyant block's first-step interface force was 71
-// N/m against its 196 N/m weight, 175 N/m with this (README, coupling).
+// solids[].initial_pressure = hydrostatic: the still-water level, the top of the fluid
+// particles (the highest one plus half a particle spacing), as a height against gravity.
 template <int dim>
-Real Simulation<dim>::initial_pressure(const SolidSpec& spec, const Vec<dim>& x, const std::string& key) {
-  if (spec.initial_pressure != "hydrostatic") return 0;
+Real Simulation<dim>::still_water_level(const std::string& key) const {
   if (fluid_.empty() || !(gravity_.norm() > 0))
     throw InputError(fmt::format("scene key '{}.initial_pressure' = \"hydrostatic\": needs fluid and gravity; accepted "
                                  "without them: \"zero\"", key));
-  if (!still_water_level_) {
-    Real top = -std::numeric_limits<Real>::infinity();
-    for (const auto& xf : fluid_.position) top = std::max(top, xf[up_axis_] * (gravity_[up_axis_] < 0 ? 1 : -1));
-    still_water_level_ = top + Real(0.5) * grid_.dx / scene_.particles_per_axis;
-  }
-  const Real height = x[up_axis_] * (gravity_[up_axis_] < 0 ? 1 : -1);
-  const Real pressure = fluid_density_ * gravity_.norm() * std::max(Real(0), *still_water_level_ - height);
-  if (!(pressure < spec.ghost_stiffness))
-    throw InputError(fmt::format("scene key '{}.initial_pressure' = \"hydrostatic\": the water pressure {:.4g} Pa reaches "
-                                 "the ghost stiffness {:.4g} Pa (J_g would not be positive); raise '{}.ghost_stiffness'",
-                                 key, pressure, spec.ghost_stiffness, key));
-  return pressure;
+  Real top = -std::numeric_limits<Real>::infinity();
+  for (const auto& x : fluid_.position) top = std::max(top, height(x));
+  return top + Real(0.5) * grid_.dx / scene_.particles_per_axis;
 }
 
-// Solid particles: F = I, J_g from solids[].initial_pressure (1, unstressed, by default), one
-// body index per solid; clamped nodes from the clamp regions; markers of the displacement
-// probes.
+// Solid particles: F = I, one body index per solid; clamped nodes from the clamp regions;
+// markers of the displacement probes. The ghost matrix starts unstressed (J_g = 1) or, with
+// solids[].initial_pressure = hydrostatic, at the still water's pressure rho_f |g| (level -
+// height), so that a body at rest in still water starts in balance with it. Unstressed, the
+// water squeezes the body through its soft ghost matrix in the first steps: a neutrally
+// buoyant block's first-step interface force was 71 N/m against its 196 N/m weight, 175 N/m
+// hydrostatic (README, coupling).
 template <int dim>
 void Simulation<dim>::seed_solids() {
   const GridLayout<dim> nodes = grid_.nodes();
@@ -103,12 +93,19 @@ void Simulation<dim>::seed_solids() {
                         spec.density, v0, seeded);
     if (seeded.empty())
       throw InputError(fmt::format("scene key '{}.shapes': no particle was seeded (outside the domain or thinner than a particle spacing)", key));
+    const bool hydrostatic = spec.initial_pressure == "hydrostatic";
+    const Real level = hydrostatic ? still_water_level(key) : 0;
     for (std::size_t p = 0; p < seeded.size(); ++p) {
       if (!grid_.dual_cells().contains(dual_cell_of<dim>(grid_.to_cells(seeded.position[p]))))
         throw InputError(fmt::format("scene key '{}.shapes': a shape reaches outside the domain", key));
       solid_.add(seeded.position[p], seeded.velocity[p], seeded.mass[p], seeded.initial_volume[p]);
       solid_.deformation_gradient.push_back(Mat<dim>::Identity());
-      solid_.ghost_J.push_back(1 - initial_pressure(spec, seeded.position[p], key) / spec.ghost_stiffness);
+      const Real pressure = hydrostatic ? fluid_density_ * gravity_.norm() * std::max(Real(0), level - height(seeded.position[p])) : 0;
+      if (!(pressure < spec.ghost_stiffness))
+        throw InputError(fmt::format("scene key '{}.initial_pressure' = \"hydrostatic\": the water pressure {:.4g} Pa "
+                                     "reaches the ghost stiffness {:.4g} Pa (J_g would not be positive); raise '{}.ghost_stiffness'",
+                                     key, pressure, spec.ghost_stiffness, key));
+      solid_.ghost_J.push_back(1 - pressure / spec.ghost_stiffness);
       solid_.body.push_back(int(b));
       solid_.initial_position.push_back(seeded.position[p]);
     }

@@ -101,7 +101,9 @@ TEST(CouplingTest, InterfaceHoldsOnAlignedLatticesWithReach06) {
     sim.step(0.001);
     const int count = sim.interface_operators().multipliers();
     if (n == 0) first_count = count;
-    if (n < 20) EXPECT_EQ(count, first_count) << "step " << n + 1;
+    if (n < 20) {
+      EXPECT_EQ(count, first_count) << "step " << n + 1;
+    }
     if (n >= 100) forces.push_back(sim.interface_force(0)[1]);
   }
   double mean = 0, square = 0;
