@@ -74,6 +74,28 @@ Real evaluate_probe(const Simulation<dim>& sim, const ProbeSpec& probe) {
     for_each_offset<dim, 2>([&](const IVec<dim>& offset) { sum += sim.fluid_pressure(cells.index(first + offset)); });
     return sum / Real(1 << dim);
   }
+  if (probe.type == "hydrostatic_head") {
+    // The pressure probe's cells that hold water, each as the level of a still surface
+    // above its centre: p / (rho_f |g|) + height; exact in hydrostatic water below the top
+    // cell layer, wherever the point sits. NaN before the first solve or in dry cells.
+    Vec<dim> x;
+    for (int a = 0; a < dim; ++a) x[a] = probe.point[a];
+    const auto cells = grid.dual_cells();
+    IVec<dim> first;
+    const Vec<dim> xi = grid.to_cells(x);
+    for (int a = 0; a < dim; ++a)
+      first[a] = std::min(std::max(int(std::floor(xi[a] - Real(0.5))), 0), grid.cells[a] - 2);
+    const Real rho_g = sim.scene().fluid.density * std::abs(sim.scene().gravity[up]);
+    Real sum = 0;
+    int wet = 0;
+    for_each_offset<dim, 2>([&](const IVec<dim>& offset) {
+      const IVec<dim> cell = first + offset;
+      if (!sim.has_fluid_pressure(cells.index(cell))) return;
+      sum += sim.fluid_pressure(cells.index(cell)) / rho_g + grid.dual_cell_centre(cell)[up] - grid.origin[up];
+      ++wet;
+    });
+    return wet ? sum / wet : std::nan("");
+  }
   if (probe.type == "wall_force") return sim.wall_force(probe.wall_axis, probe.wall_side);
   if (probe.type == "displacement") return sim.tracked_displacement(probe.name)[probe.axis];
   if (probe.type == "solid_force")

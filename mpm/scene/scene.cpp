@@ -1,5 +1,6 @@
 #include "scene/scene.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
 #include <fstream>
@@ -44,7 +45,7 @@ ProbeSpec read_probe(JsonReader& r, int dim, const std::vector<Real>& domain_min
   ProbeSpec p;
   const bool doc = r.documenting();
   p.type = r.choice("type", std::nullopt,
-                    {"front", "water_height", "pressure", "wall_force", "max_speed", "volume", "particle_volume", "hydrostatic_pressure_error",
+                    {"front", "water_height", "pressure", "hydrostatic_head", "wall_force", "max_speed", "volume", "particle_volume", "hydrostatic_pressure_error",
                      "displacement", "solid_force", "solid_com", "solid_velocity", "solid_angle"},
                     "what the probe measures (a metrics.csv column per probe)");
   const std::string default_name = p.type == "front" ? "front_x"
@@ -94,10 +95,13 @@ ProbeSpec read_probe(JsonReader& r, int dim, const std::vector<Real>& domain_min
       read_shape(shape, dim);
     }
   }
-  if (p.type == "pressure" || p.type == "displacement" || doc)
+  if (p.type == "pressure" || p.type == "hydrostatic_head" || p.type == "displacement" || doc)
     p.point = r.vector("point", std::nullopt, dim,
                        "pressure: sample point (m); the mean pressure of the 2^dim dual cells nearest to it (filters the Q1-P0 "
-                       "checkerboard mode). displacement: the material point of a solid followed (any point of a body within dx "
+                       "checkerboard mode). hydrostatic_head: the mean over those of the cells that hold water of p / (rho_f "
+                       "|g|) + the cell centre's height (m; NaN before the first solve): in still water, the level of the "
+                       "surface above the point from the weight of the water over it, whatever the scatter of the surface "
+                       "particles that water_height reads (README, coupling). displacement: the material point of a solid followed (any point of a body within dx "
                        "of its particles, e.g. the middle of a beam's end face: it moves with its nearest particles' local "
                        "affine motion x_p + F_p (X - X_p)); the column is its displacement along axis (m)");
   if (p.type == "wall_force" || doc) {
@@ -110,7 +114,7 @@ ProbeSpec read_probe(JsonReader& r, int dim, const std::vector<Real>& domain_min
   }
   if (p.type == "hydrostatic_pressure_error" || doc)
     p.surface = r.number("surface", std::nullopt, -kInf, kInf, "hydrostatic_pressure_error: still-water level H (m); relative L2 error of p vs rho g (H - y) over the fluid cells");
-  if (!doc && (p.type == "pressure" || p.type == "displacement"))
+  if (!doc && (p.type == "pressure" || p.type == "hydrostatic_head" || p.type == "displacement"))
     for (int a = 0; a < dim; ++a)
       if (p.point[a] < domain_min[a] || p.point[a] > domain_max[a])
         throw InputError(fmt::format("scene key '{}.point': outside the domain on axis {}", r.path(), a));
@@ -368,6 +372,10 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
       if (scene.probes[i].type == "solid_angle" && dim != 2)
         throw InputError(fmt::format("scene key 'probes[{}].type' = \"solid_angle\": 2-D only", i));
     }
+    for (std::size_t i = 0; i < scene.probes.size(); ++i)
+      if (scene.probes[i].type == "hydrostatic_head" &&
+          (scene.fluid.shapes.empty() || std::all_of(scene.gravity.begin(), scene.gravity.end(), [](Real g) { return g == 0; })))
+        throw InputError(fmt::format("scene key 'probes[{}].type' = \"hydrostatic_head\": needs fluid (fluid.shapes) and gravity", i));
     if (scene.fluid.shapes.empty() && scene.solids.empty())
       throw InputError("scene key 'fluid.shapes': the scene has no material (give at least one fluid shape or a solid in 'solids')");
     for (std::size_t i = 0; i < scene.solids.size(); ++i)

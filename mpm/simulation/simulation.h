@@ -80,6 +80,7 @@ class Simulation {
   int up_axis() const { return up_axis_; }
   // Fluid pressure of a dual cell (layout index) from the last solve; 0 where no fluid.
   Real fluid_pressure(int dual_cell) const;
+  bool has_fluid_pressure(int dual_cell) const;  // the cell holds a solved fluid pressure
   // Force of the fluid on a domain wall along its axis, from the wall multipliers y.
   Real wall_force(int axis, int side) const;
   // Pressure of the cell holding each fluid particle (for output frames).

@@ -775,6 +775,11 @@ void Simulation<dim>::correct_particle_positions() {
 }
 
 template <int dim>
+bool Simulation<dim>::has_fluid_pressure(int dual_cell) const {
+  return pressure_offset_ >= 0 && !ops_.pressure_of_cell.empty() && lambda_.size() > 0 && ops_.pressure_of_cell[dual_cell] >= 0;
+}
+
+template <int dim>
 Real Simulation<dim>::fluid_pressure(int dual_cell) const {
   if (pressure_offset_ < 0 || ops_.pressure_of_cell.empty() || lambda_.size() == 0) return 0;
   const int i = ops_.pressure_of_cell[dual_cell];

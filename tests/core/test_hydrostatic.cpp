@@ -3,6 +3,11 @@
 // an exact discrete equilibrium of the Q1-P0 scheme: pressure, wall force and rest are
 // reproduced to round-off. The perturbed layout (jittered particles, surface inside a
 // cell) is not, and its margins are stated beside each assertion.
+#include <fmt/format.h>
+
+#include <array>
+
+#include "core/errors.h"
 #include "simulation/runner.h"
 #include "test_helpers.h"
 
@@ -41,6 +46,24 @@ TYPED_TEST(HydrostaticTest, AlignedColumnIsExactDiscreteEquilibrium) {
   EXPECT_NEAR(this->metric(result, "wall_force_x"), this->wall_force(0.5), 1e-9 * this->wall_force(0.5));
   EXPECT_LT(this->metric(result, "max_speed"), 1e-9);
   EXPECT_NEAR(result.summary["volume_drift"].template get<double>(), 0.0, 1e-12);
+}
+
+// The hydrostatic_head probe (the still-water level a floating benchmark measures its draft
+// against) reads the surface, 0.5 m, wherever its point sits: on a node, between nodes,
+// near the floor or a wall, and in the top cell; without gravity it is a scene error.
+TYPED_TEST(HydrostaticTest, HydrostaticHeadReadsTheSurfaceWhereverItSamples) {
+  constexpr int dim = TestFixture::dim;
+  const std::vector<std::array<double, 2>> points = {{0.5, 0.25}, {0.3, 0.2}, {0.05, 0.01}, {0.97, 0.45}};
+  std::string probes = "probes=[";
+  for (std::size_t i = 0; i < points.size(); ++i)
+    probes += fmt::format(R"({}{{"type":"hydrostatic_head","name":"head{}","point":[{},{}{}]}})", i ? "," : "", i,
+                          points[i][0], points[i][1], dim == 3 ? ",0.4" : "");
+  probes += "]";
+  const RunResult result = run_scene(this->scene({"solver.method=cholmod", "end_time=0.1", probes}), {});
+  ASSERT_TRUE(result.ok) << result.summary["status"];
+  for (std::size_t i = 0; i < points.size(); ++i)
+    EXPECT_NEAR(this->metric(result, "head" + std::to_string(i)), 0.5, 1e-9) << "point " << i;
+  EXPECT_THROW(this->scene({dim == 2 ? "gravity=[0,0]" : "gravity=[0,0,0]", probes}), InputError);
 }
 
 TYPED_TEST(HydrostaticTest, PerturbedColumnStaysNearEquilibrium) {
