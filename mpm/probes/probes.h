@@ -10,6 +10,20 @@
 
 namespace iqmpm {
 
+// Calls f(cell, layout index) for the 2^dim dual cells nearest a point: their centres
+// bracket it, shifted inside the domain at walls.
+template <int dim, class F>
+void for_each_cell_around(const Grid<dim>& grid, const std::vector<Real>& point, F&& f) {
+  Vec<dim> x;
+  for (int a = 0; a < dim; ++a) x[a] = point[a];
+  const auto cells = grid.dual_cells();
+  const Vec<dim> xi = grid.to_cells(x);
+  IVec<dim> first;
+  for (int a = 0; a < dim; ++a)
+    first[a] = std::min(std::max(int(std::floor(xi[a] - Real(0.5))), 0), grid.cells[a] - 2);
+  for_each_offset<dim, 2>([&](const IVec<dim>& offset) { f(IVec<dim>(first + offset), cells.index(first + offset)); });
+}
+
 template <int dim>
 Real evaluate_probe(const Simulation<dim>& sim, const ProbeSpec& probe) {
   const auto& fluid = sim.fluid();
@@ -60,38 +74,23 @@ Real evaluate_probe(const Simulation<dim>& sim, const ProbeSpec& probe) {
     return sum / columns;
   }
   if (probe.type == "pressure") {
-    // Mean of the 2^dim dual cells nearest the point (their centres bracket it, shifted
-    // inside the domain at walls). The block holds cells of every Q1-P0 sublattice, so the
-    // checkerboard pressure mode, which moves no fluid, averages out. Empty cells count as 0.
-    Vec<dim> x;
-    for (int a = 0; a < dim; ++a) x[a] = probe.point[a];
-    const auto cells = grid.dual_cells();
-    IVec<dim> first;
-    const Vec<dim> xi = grid.to_cells(x);
-    for (int a = 0; a < dim; ++a)
-      first[a] = std::min(std::max(int(std::floor(xi[a] - Real(0.5))), 0), grid.cells[a] - 2);
+    // Mean of the 2^dim dual cells nearest the point. The block holds cells of every Q1-P0
+    // sublattice, so the checkerboard pressure mode, which moves no fluid, averages out.
+    // Empty cells count as 0.
     Real sum = 0;
-    for_each_offset<dim, 2>([&](const IVec<dim>& offset) { sum += sim.fluid_pressure(cells.index(first + offset)); });
+    for_each_cell_around(grid, probe.point, [&](const IVec<dim>&, int k) { sum += sim.fluid_pressure(k); });
     return sum / Real(1 << dim);
   }
   if (probe.type == "hydrostatic_head") {
-    // The pressure probe's cells that hold water, each as the level of a still surface
-    // above its centre: p / (rho_f |g|) + height; exact in hydrostatic water below the top
-    // cell layer, wherever the point sits. NaN before the first solve or in dry cells.
-    Vec<dim> x;
-    for (int a = 0; a < dim; ++a) x[a] = probe.point[a];
-    const auto cells = grid.dual_cells();
-    IVec<dim> first;
-    const Vec<dim> xi = grid.to_cells(x);
-    for (int a = 0; a < dim; ++a)
-      first[a] = std::min(std::max(int(std::floor(xi[a] - Real(0.5))), 0), grid.cells[a] - 2);
+    // The same cells that hold water, each as the level of a still surface above its
+    // centre: p / (rho_f |g|) + height; exact in hydrostatic water below the top cell
+    // layer, wherever the point sits. NaN before the first solve or in dry cells.
     const Real rho_g = sim.scene().fluid.density * std::abs(sim.scene().gravity[up]);
     Real sum = 0;
     int wet = 0;
-    for_each_offset<dim, 2>([&](const IVec<dim>& offset) {
-      const IVec<dim> cell = first + offset;
-      if (!sim.has_fluid_pressure(cells.index(cell))) return;
-      sum += sim.fluid_pressure(cells.index(cell)) / rho_g + grid.dual_cell_centre(cell)[up] - grid.origin[up];
+    for_each_cell_around(grid, probe.point, [&](const IVec<dim>& cell, int k) {
+      if (!sim.has_fluid_pressure(k)) return;
+      sum += sim.fluid_pressure(k) / rho_g + grid.dual_cell_centre(cell)[up] - grid.origin[up];
       ++wet;
     });
     return wet ? sum / wet : std::nan("");
