@@ -101,8 +101,8 @@ ProbeSpec read_probe(JsonReader& r, int dim, const std::vector<Real>& domain_min
                        "checkerboard mode). hydrostatic_head: the mean over those of the cells that hold water of p / (rho_f "
                        "|g|) + the cell centre's height (m; NaN before the first solve): in still water, the level of the "
                        "surface above the point from the weight of the water over it, whatever the scatter of the surface "
-                       "particles that water_height reads (README, coupling). displacement: the material point of a solid followed (any point of a body within dx "
-                       "of its particles, e.g. the middle of a beam's end face: it moves with its nearest particles' local "
+                       "particles that water_height reads (README, coupling). displacement: the material point of a solid "
+                       "followed (any point of a body within dx of its particles, e.g. the middle of a beam's end face: it moves with its nearest particles' local "
                        "affine motion x_p + F_p (X - X_p)); the column is its displacement along axis (m)");
   if (p.type == "wall_force" || doc) {
     std::vector<std::string> sides;

@@ -48,9 +48,10 @@ TYPED_TEST(HydrostaticTest, AlignedColumnIsExactDiscreteEquilibrium) {
   EXPECT_NEAR(result.summary["volume_drift"].template get<double>(), 0.0, 1e-12);
 }
 
-// The hydrostatic_head probe (the still-water level a floating benchmark measures its draft
-// against) reads the surface, 0.5 m, wherever its point sits: on a node, between nodes,
-// near the floor or a wall, and in the top cell; without gravity it is a scene error.
+// The hydrostatic_head probe (a still-water level from the weight of the water over a
+// point, the check of the floor's balance around floating bodies; README, coupling) reads
+// the surface, 0.5 m, wherever its point sits: mid-column, between nodes, near the floor,
+// and near a wall in the top cell layer; without gravity it is a scene error.
 TYPED_TEST(HydrostaticTest, HydrostaticHeadReadsTheSurfaceWhereverItSamples) {
   constexpr int dim = TestFixture::dim;
   const std::vector<std::array<double, 2>> points = {{0.5, 0.25}, {0.3, 0.2}, {0.05, 0.01}, {0.97, 0.45}};
