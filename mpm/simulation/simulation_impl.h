@@ -647,8 +647,10 @@ void Simulation<dim>::grid_to_particles(Real dt) {
 }
 
 // coupling.fluid_standoff: a fluid particle closer than min_distance to a solid particle
-// moves straight away from the nearest one to that distance (positions only). Solid
-// particles are binned by dual cell here: they have moved since the step's sort.
+// moves straight away from the nearest one to that distance (positions only): a local
+// stand-in for the reference code's position correction, which keeps water out of solids
+// (method.md §3 step 6). Solid particles are binned by dual cell here: they have moved
+// since the step's sort.
 template <int dim>
 void Simulation<dim>::keep_fluid_off_solids(Real min_distance) {
   const GridLayout<dim> cells = grid_.dual_cells();
