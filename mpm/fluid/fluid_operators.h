@@ -75,9 +75,6 @@ struct FluidQuadratureOptions {
   // Surface cells use one point at the cell centre weighted by their particles' volume
   // (scene key fluid.surface_quadrature = "centre") instead of the particles themselves.
   bool surface_cells_at_centre = false;
-  // With surface_cells_at_centre: M^f counts all of a surface cell's particle mass instead
-  // of capping it at rho dx^dim (fluid.surface_mass = "particles").
-  bool uncapped_surface_mass = false;
   // With interface quadrature: the bins of the real fluid particles; corners touching no
   // real fluid cell lie inside a solid and are left to the caller (it gives them the
   // solid's velocity).
@@ -144,7 +141,7 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
     Real mass = 0;
     const int cell_index = ops.cell_of_pressure[row];
     for (int p = bins.begin(cell_index); p < bins.end(cell_index); ++p) mass += particles.mass[p];
-    return options.uncapped_surface_mass ? mass : std::min(mass, density * cell_volume);
+    return std::min(mass, density * cell_volume);
   };
   const Real corner_share = density * cell_volume / Real(1 << dim);
   for (int row = 0; row < np; ++row) {

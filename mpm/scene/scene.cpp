@@ -225,15 +225,6 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
         "surface_quadrature", "particles", {"particles", "centre"},
         "quadrature of G^f and M^f in fluid cells next to empty ones: particles (method.md §4) or one point at the "
         "cell centre weighted by the particles' volume");
-    scene.fluid.surface_mass = fluid.choice(
-        "surface_mass", "capped", {"capped", "particles"},
-        "with surface_quadrature = centre, the mass M^f gives a surface cell: capped = its particles' mass up to "
-        "rho_f dx^dim, as the volume G^f counts is capped; particles = all of it, so water crowded against a body "
-        "keeps its weight in the solve (with capped, 2-3 kg/m of the floating block's 494 kg/m of water weighed "
-        "nothing; README, coupling). The 3-D floating cube uses particles");
-    if (!docs && scene.fluid.surface_mass == "particles" && scene.fluid.surface_quadrature != "centre")
-      throw InputError("scene key 'fluid.surface_mass' = \"particles\": needs fluid.surface_quadrature = \"centre\" "
-                       "(with \"particles\" every surface cell already counts its particles' mass)");
     scene.fluid.position_correction = fluid.number(
         "position_correction", 0, 0, 1,
         "relaxation of the particle position correction after each step (method.md §3 step 6): the fraction of each "
@@ -318,14 +309,6 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
         "on a clamped plate then gives it 5.8 % of its momentum in 0.2 s (0.2 % at 0.5, where the sliding layer's ties "
         "are mostly broken), through the borrowed volume where the pressure varies along the plate (README, "
         "coupling). The elastic gate is the same at 0.6 (tip peak -16.1 %). Accepted: 0.5 to 0.7");
-    scene.coupling.fluid_standoff = coupling.number(
-        "fluid_standoff", scene.coupling.fluid_standoff, 0, 1,
-        "after each step a fluid particle closer than this to a solid particle (in particle spacings, dx / "
-        "particles_per_axis) moves straight away from the nearest one to this distance: water does not creep into a "
-        "body's outline, which the grid's interface constraint does not prevent (the 3-D floating cube at dx 0.025: "
-        "from 5 to 28 mm of its draft over 8 s without it). Positions only. With fluid.surface_mass = particles, so "
-        "that the water pushed out keeps its weight: the cube at dx 0.05 then sits 2.8 mm below its Archimedes "
-        "centre instead of 15 mm (either alone: 10.6 / 16 mm; README, coupling). 0 = off. Accepted: 0 to 1");
     if (scene.coupling.solid_corner_fraction > 0 && scene.coupling.solid_corner_fraction <= 0.5 && !docs)
       throw InputError(fmt::format("scene key 'coupling.solid_corner_fraction' = {}: accepted 0 (off) or above 0.5 up to 1 "
                                    "(at 0.5 or below, corners on a solid's surface would move with it)",

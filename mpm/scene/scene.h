@@ -42,7 +42,6 @@ struct FluidSpec {
   std::vector<ShapeSpec> shapes;
   std::vector<Real> initial_velocity;
   std::string surface_quadrature = "particles";  // particles | centre
-  std::string surface_mass = "capped";           // centre rule's M^f: capped | particles
   Real position_correction = 0;  // relaxation of the particle position correction; 0 = off
 };
 
@@ -79,7 +78,6 @@ struct CouplingSpec {
   int max_contact_rounds = 8;           // unilateral: pressure solves per step at most
   Real solid_corner_fraction = 0;       // a fluid corner this much inside a solid moves with it; 0 = off
   Real interface_reach = 0.5;           // IQ points: solid particles this close (in dx) to a fluid particle
-  Real fluid_standoff = 0;              // fluid particles kept this far (particle spacings) from solid ones; 0 = off
 };
 
 struct SceneSpec {

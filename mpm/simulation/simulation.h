@@ -126,7 +126,6 @@ class Simulation {
   void update_grid_velocities();
   void grid_to_particles(Real dt);
   void keep_particles_in_domain(Particles<dim>& particles, const char* kind);
-  void keep_fluid_off_solids(Real min_distance);
   void correct_particle_positions();
 
   SceneSpec scene_;

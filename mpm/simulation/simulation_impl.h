@@ -337,7 +337,6 @@ void Simulation<dim>::build_fluid_operators() {
   auto scope = timer_.scope("fluid operators");
   FluidQuadratureOptions<dim> options;
   options.surface_cells_at_centre = scene_.fluid.surface_quadrature == "centre";
-  options.uncapped_surface_mass = scene_.fluid.surface_mass == "particles";
   solid_corners_.clear();
   if (!iq_points_.empty() && !scene_.coupling.interior_fluid_corners) {
     options.real_fluid_bins = &fluid_bins_;
@@ -640,46 +639,6 @@ void Simulation<dim>::grid_to_particles(Real dt) {
     throw NumericalFailure(fmt::format("a solid particle inverted (det F = {:.3g} <= 0): the step was too large for the "
                                        "solid's stiffness; lower dt_max or cfl", min_J));
   keep_particles_in_domain(solid_, "solid");
-  if (has_fluid() && scene_.coupling.fluid_standoff > 0) {
-    keep_fluid_off_solids(scene_.coupling.fluid_standoff * grid_.dx / scene_.particles_per_axis);
-    keep_particles_in_domain(fluid_, "fluid");
-  }
-}
-
-// coupling.fluid_standoff: a fluid particle closer than min_distance to a solid particle
-// moves straight away from the nearest one to that distance (positions only): a local
-// stand-in for the reference code's position correction, which keeps water out of solids
-// (method.md §3 step 6). Solid particles are binned by dual cell here: they have moved
-// since the step's sort.
-template <int dim>
-void Simulation<dim>::keep_fluid_off_solids(Real min_distance) {
-  const GridLayout<dim> cells = grid_.dual_cells();
-  std::vector<std::pair<int, int>> solid_in_cell;  // (dual cell, particle), sorted
-  solid_in_cell.reserve(solid_.size());
-  for (std::size_t s = 0; s < solid_.size(); ++s) {
-    const IVec<dim> c = dual_cell_of<dim>(grid_.to_cells(solid_.position[s]));
-    if (cells.contains(c)) solid_in_cell.push_back({cells.index(c), int(s)});
-  }
-  std::sort(solid_in_cell.begin(), solid_in_cell.end());
-  const Real min2 = min_distance * min_distance;
-#pragma omp parallel for schedule(static)
-  for (int p = 0; p < int(fluid_.size()); ++p) {
-    Vec<dim>& x = fluid_.position[p];
-    const IVec<dim> home = dual_cell_of<dim>(grid_.to_cells(x));
-    Real closest = min2;
-    int nearest = -1;
-    for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
-      const IVec<dim> cell = home + offset - IVec<dim>::Ones();
-      if (!cells.contains(cell)) return;
-      const int k = cells.index(cell);
-      for (auto it = std::lower_bound(solid_in_cell.begin(), solid_in_cell.end(), std::make_pair(k, -1));
-           it != solid_in_cell.end() && it->first == k; ++it) {
-        const Real d2 = (x - solid_.position[it->second]).squaredNorm();
-        if (d2 < closest) closest = d2, nearest = it->second;
-      }
-    });
-    if (nearest >= 0 && closest > 0) x = solid_.position[nearest] + (x - solid_.position[nearest]) * (min_distance / std::sqrt(closest));
-  }
 }
 
 // A particle pushed through a slip wall by round-off or a large step is put back just
