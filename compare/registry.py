@@ -371,35 +371,42 @@ _register(_floating("floating_block_roll", "Floating block released tilted 10 de
                     roll=True, quick=False))
 _register(_floating("floating_block_light", "Light floating block (rho_s = 200): heave", 0.528, 0.02, quick=False))
 
-_register(Benchmark(
-    name="floating_block_3d",
-    title="Floating cube (3-D)",
-    dim=3,
-    foam_case=None,
-    metrics=(MetricSpec("com_y", "m", "cube centre height",
-                        (ConstantReference("archimedes", "Archimedes", 0.5028),)),
-             MetricSpec("block_force_y", "N", "vertical interface force on the cube",
-                        (ConstantReference("weight", "weight", 500 * 0.008 * G),), skip_initial=True)),
-    scalars=(
-        ScalarSpec("equilibrium_com_y", "m", "centre height, mean over last 40 %", reference=0.5028,
-                   reference_label="Archimedes", column="com_y", reducer="mean_tail", tail=0.4),
-        # The cube (side 0.2 m, half the water's density) tips over, but any plane through
-        # its centre halves it: at equilibrium the centre sits at the still-water level in
-        # any orientation, so level - centre + 0.1 m is the draft of the upright cube.
-        ScalarSpec("equilibrium_draft", "m", "draft: still-water level - (centre - 0.1 m), mean over last 40 %",
-                   reference=0.1, reference_label="Archimedes", column="water_level",
-                   subtract_column="com_y", offset=0.1, reducer="mean_tail", tail=0.4),
-        # The same against the hydrostatic head far from the cube (p / (rho_f g) + height):
-        # the column tops of `water_level` read a few mm high in 3-D (README, coupling).
-        ScalarSpec("head_draft", "m", "draft: hydrostatic head far from the cube - (centre - 0.1 m), mean over last 40 %",
-                   reference=0.1, reference_label="Archimedes", column="still_water_level",
-                   subtract_column="com_y", offset=0.1, reducer="mean_tail", tail=0.4),
-        ScalarSpec("volume_drift", "-", "relative volume drift", reference=0.0,
-                   reference_label="0", summary_key="volume_drift"),
-    ),
-    primary=("com_y", "archimedes"),
-    quick=False,
-))
+def _floating_cube(name: str, title: str, centre: float) -> Benchmark:
+    """The 3-D cube (side 0.2 m, rho_s = 500); `centre`: its Archimedes centre height, m."""
+    return Benchmark(
+        name=name,
+        title=title,
+        dim=3,
+        foam_case=None,
+        metrics=(MetricSpec("com_y", "m", "cube centre height",
+                            (ConstantReference("archimedes", "Archimedes", centre),)),
+                 MetricSpec("block_force_y", "N", "vertical interface force on the cube",
+                            (ConstantReference("weight", "weight", 500 * 0.008 * G),), skip_initial=True)),
+        scalars=(
+            ScalarSpec("equilibrium_com_y", "m", "centre height, mean over last 40 %", reference=centre,
+                       reference_label="Archimedes", column="com_y", reducer="mean_tail", tail=0.4),
+            # The cube tips over, but any plane through its centre halves it: at
+            # equilibrium the centre sits at the still-water level in any orientation, so
+            # level - centre + 0.1 m is the draft of the upright cube.
+            ScalarSpec("equilibrium_draft", "m", "draft: still-water level - (centre - 0.1 m), mean over last 40 %",
+                       reference=0.1, reference_label="Archimedes", column="water_level",
+                       subtract_column="com_y", offset=0.1, reducer="mean_tail", tail=0.4),
+            # The same against the hydrostatic head far from the cube (p / (rho_f g) +
+            # height): the column tops of `water_level` read a few mm high in 3-D (README,
+            # coupling).
+            ScalarSpec("head_draft", "m", "draft: hydrostatic head far from the cube - (centre - 0.1 m), mean over last 40 %",
+                       reference=0.1, reference_label="Archimedes", column="still_water_level",
+                       subtract_column="com_y", offset=0.1, reducer="mean_tail", tail=0.4),
+            ScalarSpec("volume_drift", "-", "relative volume drift", reference=0.0,
+                       reference_label="0", summary_key="volume_drift"),
+        ),
+        primary=("com_y", "archimedes"),
+        quick=False,
+    )
+
+
+_register(_floating_cube("floating_block_3d", "Floating cube (3-D)", 0.5028))
+_register(_floating_cube("floating_block_3d_fine", "Floating cube (3-D), dx 0.025, 0.6 m tank, dt 1.25 ms", 0.5078))
 
 _register(Benchmark(
     name="elastic_sphere",

@@ -20,9 +20,9 @@ run() {  # name, then --set overrides
   echo "== $name" >&2
   "$bin" run "$scene" --out "$out/$name" --quiet --threads "$threads" --set write_frames=false "${sets[@]}"
 }
-run dx5mm dx=0.005 dt_max=0.0005
+run dx5mm dx=0.005 dt_max=0.0002
 run dx2.5mm
-run dx1.25mm dx=0.00125 dt_max=0.000125
+run dx1.25mm dx=0.00125 dt_max=0.00005
 run E7.8MPa solids.0.youngs_modulus=7.8e6
 run lambda_g_1e3 solids.0.ghost_stiffness=1e3
 run lambda_g_1e7 solids.0.ghost_stiffness=1e7

@@ -10,7 +10,8 @@
 //    borrowed and the fluid keeps its mass (coupling.borrowed_fluid = "volume"); the
 //    reference code lends the mass too ("mass"), which weighs the lent water twice next to
 //    full cells (README, coupling).
-//  * Normal: the normalised gradient of the solid grid mass at the point (into the solid).
+//  * Normal: the normalised gradient of the solid grid mass at the point (into the solid),
+//    the mass reflected across the slip walls first (mass_reflected_across_walls).
 //  * Area: a disk of the particle's current volume: 2 sqrt(V / pi) (a length) in 2-D,
 //    pi r^2 with r = (3 V / 4 pi)^(1/3) in 3-D (the reference code's formula is 2-D only).
 //  * The point is clamped 0.1 dx inside its dual cell so that N0 is unambiguous there.
@@ -18,6 +19,7 @@
 
 #include <Eigen/LU>
 #include <Eigen/SparseCore>
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -139,6 +141,37 @@ void for_each_solid_weight(const Grid<dim>& grid, const IVec<dim>& corner, const
     const int dof = solid_dof_of_node[nodes.index(node)];
     if (dof >= 0) f(dof, stencil.weight(offset));
   });
+}
+
+// The solid grid mass extended by reflection across each slip wall (sides[a][0]: the low
+// side of axis a), for the IQ normals only. The padding node beyond a wall and its mirror
+// inside both get the sum of their masses: the mass of the body together with its mirror
+// image. A body flush against a wall then has no mass gradient across the wall, so the
+// normals of its particles next to the wall lie along the wall. Without it they tilt
+// towards the wall (the body's mass falls off into the padding layer), and the one
+// constraint per cell lets water slide along the wall into the body (measured: a gate
+// clamped to the floor, holding still water, leaked under itself from 0.5 s on; README,
+// coupling). A body more than 1.5 dx from a wall has no mass in the padding layer and is
+// unaffected.
+template <int dim>
+std::vector<Real> mass_reflected_across_walls(const Grid<dim>& grid, std::vector<Real> node_mass,
+                                              const std::array<std::array<bool, 2>, dim>& sides) {
+  const GridLayout<dim> nodes = grid.nodes();
+  for (int a = 0; a < dim; ++a)
+    for (int side = 0; side < 2; ++side) {
+      if (!sides[a][side]) continue;
+      const int outside = side == 0 ? -1 : grid.cells[a];
+      const int mirror = side == 0 ? 0 : grid.cells[a] - 1;
+      for (int k = 0; k < nodes.size(); ++k) {
+        IVec<dim> i = nodes.multi_index(k);
+        if (i[a] != outside) continue;
+        i[a] = mirror;
+        const int m = nodes.index(i);
+        const Real sum = node_mass[k] + node_mass[m];
+        node_mass[k] = node_mass[m] = sum;
+      }
+    }
+  return node_mass;
 }
 
 // H^s and H^f rows (method.md §4), one row per dual cell with IQ points:

@@ -328,7 +328,9 @@ void Simulation<dim>::find_interface_quadrature() {
 template <int dim>
 void Simulation<dim>::build_interface_operators() {
   auto scope = timer_.scope("interface quadrature");
-  iq_ops_ = iqmpm::build_interface_operators(grid_, iq_points_, solid_, node_momentum_.mass, solid_ops_.dof_of_node,
+  iq_ops_ = iqmpm::build_interface_operators(grid_, iq_points_, solid_,
+                                             mass_reflected_across_walls<dim>(grid_, node_momentum_.mass, slip_),
+                                             solid_ops_.dof_of_node,
                                              ops_.dof_of_corner, solid_ops_.velocity_dofs() * dim);
 }
 
@@ -352,7 +354,10 @@ void Simulation<dim>::build_fluid_operators() {
 
 // coupling.solid_corner_fraction: the fluid corners whose N1 support is at least that
 // fraction solid. On a flat surface a corner's fraction is 0.5, and 1 - (1 - d)^2 / 2 at a
-// depth of d cells inside it (0.75 at d = 0.29). The caller has cleared the mask.
+// depth of d cells inside it (0.75 at d = 0.29). A corner on a slip wall has half its
+// support beyond the wall, where the body's mirror image lies (as for the IQ normals,
+// mass_reflected_across_walls): its fraction counts twice, per wall it lies on. The caller
+// has cleared the mask.
 template <int dim>
 void Simulation<dim>::mark_solid_corners() {
   const Real threshold = scene_.coupling.solid_corner_fraction;
@@ -366,7 +371,12 @@ void Simulation<dim>::mark_solid_corners() {
     for_each_offset<dim, 2>([&](const IVec<dim>& offset) { fraction[corners.index(stencil.base + offset)] += stencil.weight(offset) * share; });
   }
   solid_corners_.assign(corners.size(), 0);
-  for (int k = 0; k < corners.size(); ++k) solid_corners_[k] = fraction[k] >= threshold;
+  for (int k = 0; k < corners.size(); ++k) {
+    const IVec<dim> corner = corners.multi_index(k);
+    for (int a = 0; a < dim; ++a)
+      if ((corner[a] == 0 && slip_[a][0]) || (corner[a] == grid_.cells[a] && slip_[a][1])) fraction[k] *= 2;
+    solid_corners_[k] = fraction[k] >= threshold;
+  }
 }
 
 // §5: the stacked velocities are the solid nodes' (v_s*, after Newton) then the fluid
