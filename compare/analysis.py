@@ -156,10 +156,17 @@ def _ours_series(run: Run, spec: MetricSpec) -> Series:
 # --------------------------------------------------------------------------- scalars
 
 
-def reduce_series(t: np.ndarray, y: np.ndarray, reducer: str, tail: float = 0.5) -> float:
+def reduce_series(t: np.ndarray, y: np.ndarray, reducer: str, tail: float = 0.5,
+                  window: float = 0.0, until: float | None = None) -> float:
     s = Series.of(t, y)
     if len(s.t) == 0:
         return math.nan
+    if reducer == "window_peak":
+        return window_peak(s.t, s.y, window)
+    if reducer == "integral":
+        end = s.t[-1] if until is None else min(until, s.t[-1])
+        fine = np.linspace(s.t[0], end, max(2, int(round((end - s.t[0]) / 1e-4)) + 1))
+        return float(np.trapz(np.interp(fine, s.t, s.y), fine))
     if reducer == "first":
         later = np.nonzero(s.t > 0)[0]
         return float(s.y[later[0]] if len(later) else s.y[0])
@@ -192,6 +199,24 @@ def reduce_series(t: np.ndarray, y: np.ndarray, reducer: str, tail: float = 0.5)
             return period
         return 1.0 / period if period > 0 else math.nan
     raise CompareError(f"unknown scalar reducer '{reducer}'")
+
+
+def window_peak(t: np.ndarray, y: np.ndarray, window: float) -> float:
+    """Largest mean of y over a sliding window of `window` seconds. The series is first
+    interpolated to window / 100: a mean over the samples inside each window alone
+    undercounts a coarse series (interFoam writes forces every 2 ms; a 10 ms window then
+    holds 5 or 6 of them, and the sum of their trapezoids spans only 8 or 10 ms)."""
+    if not window > 0:
+        raise CompareError("reducer 'window_peak' needs a window > 0 s")
+    if t[-1] - t[0] < window:
+        return math.nan
+    step = window / 100
+    fine = np.arange(t[0], t[-1] + 0.5 * step, step)
+    values = np.interp(fine, t, y)
+    # Trapezoidal mean over each window of 101 points.
+    cumulative = np.concatenate([[0.0], np.cumsum(0.5 * (values[1:] + values[:-1]) * step)])
+    means = (cumulative[100:] - cumulative[:-100]) / window
+    return float(np.max(means))
 
 
 def half_cycles(t: np.ndarray, y: np.ndarray, tail: float = 0.4) -> tuple[np.ndarray, np.ndarray]:
@@ -274,7 +299,7 @@ def scalar_value(run: Run, spec: ScalarSpec) -> float | None:
         y = y - run.metrics.columns[spec.subtract_column] + spec.offset
     if spec.use_abs:
         y = np.abs(y)
-    return reduce_series(run.metrics.t, y, spec.reducer, spec.tail)
+    return reduce_series(run.metrics.t, y, spec.reducer, spec.tail, spec.window, spec.until)
 
 
 # --------------------------------------------------------------------------- helpers

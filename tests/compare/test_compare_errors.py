@@ -157,3 +157,40 @@ def test_decay_ratio_of_a_damped_oscillation():
     growing = 0.504 + 0.016 * np.exp(0.1 * t) * np.cos(2 * np.pi * t / period)
     run = Run(Path("synthetic"), "iqmpm", {"status": "ok"}, Metrics(Path("synthetic"), t, {"com_y": growing}))
     assert scalar_value(run, spec) > 1.0
+
+
+def test_obstacle_force_peak_and_impulses():
+    """dam_break_obstacle's scalars: the largest 10 ms mean and the impulses of the force.
+
+    An impact pulse F = 170 sin^2(pi (t - 0.1) / 0.1) on 0.1-0.2 s has a 10 ms mean peak of
+    170 (1/2 + sin(pi/10) / (2 pi/10)) and an impulse of 8.5 N s/m. Sampled every 2 ms (interFoam's output) the window mean must not undercount; a
+    single-step spike of 800 N/m lasting 0.4 ms adds only its 0.32 N s/m / 0.01 s to a mean.
+    """
+    from pathlib import Path
+
+    from compare.analysis import scalar_value
+    from compare.io import Metrics, Run
+    from compare.registry import lookup
+
+    scalars = {s.name: s for s in lookup("dam_break_obstacle").scalars}
+
+    def pulse(t):
+        return np.where((t > 0.1) & (t < 0.2), 170 * np.sin(np.pi * (t - 0.1) / 0.1) ** 2, 0.0)
+
+    exact_peak = 170 * (0.5 + math.sin(math.pi / 10) / (2 * math.pi / 10))
+    for spacing in (0.0004, 0.002):
+        t = np.arange(0.0, 1.0 + spacing / 2, spacing)
+        run = Run(Path("synthetic"), "iqmpm", {"status": "ok"},
+                  Metrics(Path("synthetic"), t, {"obstacle_force_x": pulse(t)}))
+        assert scalar_value(run, scalars["force_peak_10ms"]) == pytest.approx(exact_peak, rel=2e-3)
+        assert scalar_value(run, scalars["impulse"]) == pytest.approx(8.5, rel=2e-3)
+        assert scalar_value(run, scalars["impulse_to_0.3s"]) == pytest.approx(8.5, rel=2e-3)
+    t = np.arange(0.0, 1.0002, 0.0004)
+    spiky = pulse(t)
+    spiky[np.argmin(np.abs(t - 0.5))] = 800.0
+    run = Run(Path("synthetic"), "iqmpm", {"status": "ok"}, Metrics(Path("synthetic"), t, {"obstacle_force_x": spiky}))
+    assert scalar_value(run, scalars["force_peak_10ms"]) == pytest.approx(exact_peak, rel=2e-3)  # the spike: 32 N/m
+    late = Run(Path("synthetic"), "iqmpm", {"status": "ok"},
+               Metrics(Path("synthetic"), t, {"obstacle_force_x": np.where(t > 0.3, 10.0, 0.0)}))
+    assert scalar_value(late, scalars["impulse_to_0.3s"]) == pytest.approx(0.0, abs=1e-3)
+    assert scalar_value(late, scalars["impulse"]) == pytest.approx(7.0, rel=1e-3)
