@@ -4,7 +4,9 @@
 //   SparseMatrix hessian(x, bool project_to_psd), Real gradient_scale().
 // Direction: H d = -g either by a sparse LDL^T factorisation (direct, exact Newton steps; the
 // symbolic analysis is done once per minimisation since the pattern does not change), or
-// by CG with a diagonal preconditioner, to the relative tolerance
+// by CG with a diagonal preconditioner (on products H x without assembling H when the
+// Potential offers linearize(x, project) -> {diagonal, ...} and hessian_product(linear, x);
+// the solid's does), to the relative tolerance
 // eta_k = min(cg_max_tolerance, max(cg_min_tolerance, cg_forcing ||g_k|| / ||g_0||)), which
 // keeps Newton's local quadratic rate (inexact Newton with eta_k = O(||g_k||)).
 // Step: backtracking (Armijo) line search on the energy; a trial with a non-finite energy
@@ -23,6 +25,8 @@
 #include <limits>
 #include <sstream>
 #include <string>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "core/types.h"
@@ -91,6 +95,45 @@ struct NewtonResult {
   }
 };
 
+// Whether a Potential gives Hessian products without assembling the Hessian.
+template <class P, class = void>
+struct HasHessianProducts : std::false_type {};
+template <class P>
+struct HasHessianProducts<P, std::void_t<decltype(std::declval<const P&>().hessian_product(
+                                 std::declval<const P&>().linearize(std::declval<const typename P::Vector&>(), true),
+                                 std::declval<const typename P::Vector&>()))>> : std::true_type {};
+
+// Diagonally preconditioned CG from x = 0 on products y = product(x), with Eigen's
+// ConjugateGradient stopping rule (|r| <= tolerance |b|) and preconditioner (1 / diagonal,
+// 1 where the diagonal is 0). Returns the iterations; `finished`: the rule was met.
+template <class Vector, class Product>
+int diagonal_pcg(const Product& product, const Vector& diagonal, const Vector& b, Vector& x, Real tolerance,
+                 int max_iterations, bool& finished) {
+  const Vector inverse = diagonal.unaryExpr([](Real d) { return d != 0 ? 1 / d : Real(1); });
+  x = Vector::Zero(b.size());
+  const Real b_norm2 = b.squaredNorm();
+  finished = true;
+  if (b_norm2 == 0) return 0;
+  const Real threshold = tolerance * tolerance * b_norm2;
+  Vector r = b;
+  Vector z = inverse.cwiseProduct(r);
+  Vector p = z;
+  Real rz = r.dot(z);
+  for (int k = 0; k < max_iterations; ++k) {
+    if (r.squaredNorm() <= threshold) return k;
+    const Vector q = product(p);
+    const Real alpha = rz / p.dot(q);
+    x += alpha * p;
+    r -= alpha * q;
+    z = inverse.cwiseProduct(r);
+    const Real rz_next = r.dot(z);
+    p = z + (rz_next / rz) * p;
+    rz = rz_next;
+  }
+  finished = r.squaredNorm() <= threshold;
+  return max_iterations;
+}
+
 template <class Potential>
 NewtonResult minimize_projected_newton(const Potential& potential, Eigen::Matrix<Real, Eigen::Dynamic, 1>& x,
                                        const ProjectedNewtonOptions& options = {}) {
@@ -130,11 +173,10 @@ NewtonResult minimize_projected_newton(const Potential& potential, Eigen::Matrix
   bool analysed = false;
   result.status = NewtonStatus::max_iterations;
   for (int k = 0; k < options.max_iterations; ++k) {
-    const SparseMatrix H = potential.hessian(x, options.project_hessian);
     Vector d;
     bool solved = false;
     if (options.direct) {
-      const ColumnMatrix Hc = H;
+      const ColumnMatrix Hc = potential.hessian(x, options.project_hessian);
       if (!analysed) ldlt.analyzePattern(Hc), analysed = true;
       ldlt.factorize(Hc);
       if (ldlt.info() == Eigen::Success) {
@@ -143,13 +185,25 @@ NewtonResult minimize_projected_newton(const Potential& potential, Eigen::Matrix
       }
     }
     if (!solved) {  // CG, or the factorisation failed (an unprojected, singular Hessian)
-      cg.compute(H);
-      cg.setMaxIterations(options.cg_max_iterations);
-      cg.setTolerance(std::min(options.cg_max_tolerance,
-                               std::max(options.cg_min_tolerance, options.cg_forcing * g_norm / g0)));
-      d = cg.solve(-g);
-      result.cg_iterations += int(cg.iterations());
-      if (cg.info() != Eigen::Success) ++result.cg_unfinished;
+      const Real tolerance =
+          std::min(options.cg_max_tolerance, std::max(options.cg_min_tolerance, options.cg_forcing * g_norm / g0));
+      if constexpr (HasHessianProducts<Potential>::value) {
+        const auto linear = potential.linearize(x, options.project_hessian);
+        bool finished = false;
+        const Vector rhs = -g;
+        result.cg_iterations += diagonal_pcg(
+            [&](const Vector& y) { return potential.hessian_product(linear, y); }, linear.diagonal, rhs, d,
+            tolerance, options.cg_max_iterations, finished);
+        if (!finished) ++result.cg_unfinished;
+      } else {
+        const SparseMatrix H = potential.hessian(x, options.project_hessian);  // cg keeps a reference
+        cg.compute(H);
+        cg.setMaxIterations(options.cg_max_iterations);
+        cg.setTolerance(tolerance);
+        d = cg.solve(-g);
+        result.cg_iterations += int(cg.iterations());
+        if (cg.info() != Eigen::Success) ++result.cg_unfinished;
+      }
     }
     if (!d.allFinite()) {
       result.status = NewtonStatus::non_finite;

@@ -214,6 +214,41 @@ TYPED_TEST(SolidPotentialTest, ProjectedHessianIsSymmetricPositiveSemidefinite) 
       << "test case too weak: the unprojected elastic Hessian is already PSD";
 }
 
+// (c) The matrix-free Hessian that CG uses (3-D Newton directions) is the assembled one:
+// products H x and the diagonal agree to round-off, projected and not, with clamped nodes
+// and wall-held components (identity-times-mass rows and columns).
+TYPED_TEST(SolidPotentialTest, HessianProductsMatchTheAssembledHessian) {
+  constexpr int dim = DimOf<TypeParam>::value;
+  std::mt19937 rng(31 + dim);
+  Block<dim> block = make_block<dim>(3, 3, rng, [](std::mt19937& r) {
+    return Mat<dim>(random_rotation<dim>(r) * Real(0.7) * random_deformation<dim>(r));
+  });
+  clamp_nodes_up_to<dim>(block, 2, testing::random_vector<dim>(rng, -1, 1));
+  const GridLayout<dim> layout = block.grid.nodes();
+  block.nodes.fixed_axes.assign(layout.size(), 0);
+  int held = 0;
+  for (int k = 0; k < layout.size(); ++k)
+    if (block.nodes.mass[k] > 0 && !block.nodes.clamped[k] && layout.multi_index(k)[1] <= 3)
+      block.nodes.fixed_axes[k] = 1u << 1, ++held;
+  ASSERT_GT(held, 0);
+  const SolidIncrementalPotential<dim, TypeParam> potential(block.grid, block.particles, test_material<TypeParam>(),
+                                                            block.nodes, /*dt=*/1e-2);
+  const Vector v = random_vector(rng, potential.unknowns(), -0.5, 0.5);
+  ASSERT_TRUE(std::isfinite(potential.energy(v)));
+  for (bool project : {true, false}) {
+    const auto H = potential.hessian(v, project);
+    const auto linear = potential.linearize(v, project);
+    const Vector diagonal = H.diagonal();
+    EXPECT_LT((linear.diagonal - diagonal).norm(), 1e-12 * diagonal.norm()) << "project " << project;
+    for (int trial = 0; trial < 3; ++trial) {
+      const Vector x = random_vector(rng, potential.unknowns(), -1, 1);
+      const Vector assembled = H * x;
+      EXPECT_LT((potential.hessian_product(linear, x) - assembled).norm(), 1e-12 * assembled.norm())
+          << "project " << project;
+    }
+  }
+}
+
 // (d) Newton's local rate: a compressed block (F^n = 0.8 I, at rest) expands in one large
 // step. With the exact Hessian (project_hessian = false, which stays SPD here through the
 // mass) and CG tolerance ~ ||g_k||, ||g_{k+1}|| <= C ||g_k||^2 / ||g_0|| once ||g_k|| is
