@@ -55,7 +55,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="IQ-MPM run folders (default <repo>/out/validate)")
     v.add_argument("--foam-runs-dir", type=Path, default=None,
                    help="OpenFOAM run cache (default <repo>/foam_runs)")
-    v.add_argument("--timeout", type=float, default=900.0, help="seconds per child run")
+    v.add_argument("--timeout", type=float, default=900.0, help="seconds per child run (a long benchmark's registered minimum still applies: floating_block_3d_fine 4 h)")
     v.add_argument("--reuse", action="store_true",
                    help="reuse IQ-MPM runs whose binary, scene and options are unchanged")
     v.add_argument("--no-foam-cache", action="store_true", help="always rerun OpenFOAM")

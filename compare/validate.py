@@ -259,10 +259,11 @@ def run_iqmpm(s: Settings, scene: Scene, level: int, default_dx: float | None,
         (out_dir / stale).unlink(missing_ok=True)
     cmd = [str(s.solver_bin)] + args
     progress.line(scene.name, stage, "started")
-    res = run_child(cmd, out_dir / "iqmpm.log", progress, scene.name, stage, s.timeout, s.repo)
+    timeout = max(s.timeout, lookup(scene.name, scene.folder).min_timeout)
+    res = run_child(cmd, out_dir / "iqmpm.log", progress, scene.name, stage, timeout, s.repo)
     _record(out_dir, {"solver": "iqmpm", "level": level, "dx": dx, "command": cmd,
                       "threads": s.threads, "elapsed_s": res.elapsed, "returncode": res.returncode})
-    return _finish(out_dir, "iqmpm", res, key, progress, scene.name, stage, s.timeout)
+    return _finish(out_dir, "iqmpm", res, key, progress, scene.name, stage, timeout)
 
 
 def _finish(out_dir: Path, solver: str, res: ChildResult, key: str, progress: Progress,

@@ -139,3 +139,19 @@ def test_quick_suite_leaves_long_benchmarks_to_named_runs(tmp_path, capsys, monk
     assert "floating_block_3d | IQ-MPM level 1" not in out
     _validate(repo, tmp_path, "--benchmark", "floating_block_3d")
     assert "floating_block_3d | IQ-MPM level 1 | started" in capsys.readouterr().out
+
+
+def test_long_benchmarks_keep_their_own_minimum_timeout(tmp_path, capsys, monkeypatch):
+    # --timeout kills a run that takes longer (hydrostatic_2d sleeps 0.6 s), but a benchmark
+    # registered with a longer min_timeout (floating_block_3d_fine: 4 h) keeps it.
+    monkeypatch.setenv("FAKE_FOAM_CALLS", str(tmp_path / "calls.txt"))
+    repo = _repo(tmp_path)
+    (repo / "benchmarks" / "floating_block_3d").mkdir()
+    (repo / "benchmarks" / "floating_block_3d" / "floating_block_3d_fine.json").write_text(
+        json.dumps({"dx": 0.04, "sleep": 0.6}))
+    assert _validate(repo, tmp_path, "--benchmark", "hydrostatic_2d", "--timeout", "0.3") == 1
+    assert "timed out after 0.3 s" in capsys.readouterr().out
+    _validate(repo, tmp_path, "--benchmark", "floating_block_3d_fine", "--timeout", "0.3")
+    out = capsys.readouterr().out
+    assert "floating_block_3d_fine | IQ-MPM level 1 | done" in out
+    assert "timed out" not in out
