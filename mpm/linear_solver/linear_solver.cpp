@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/errors.h"
+#include "linear_solver/pcg.h"
 
 namespace iqmpm {
 namespace {
@@ -28,55 +29,33 @@ class PcgSolver final : public LinearSolver {
     stats.method = "pcg-" + options_.preconditioner;
     const int n = int(b.size());
     if (x.size() != n || !options_.warm_start) x = Eigen::VectorXd::Zero(n);
-    const Real b_norm = b.norm();
-    if (b_norm == 0) {
-      x.setZero();
-      stats.converged = true;
-      return stats;
-    }
     const bool jacobi = options_.preconditioner == "jacobi";
     Eigen::VectorXd inverse_diagonal;
     // Eigen's incomplete Cholesky with threshold fill (Lin & More), AMD ordering and an
     // automatic diagonal shift on breakdown: the Q1-P0 stencil is not an M-matrix, and a
     // plain MIC(0) on it breaks down in 3-D.
     Eigen::IncompleteCholesky<Real, Eigen::Lower, Eigen::AMDOrdering<int>> ichol;
-    if (jacobi) {
-      inverse_diagonal = A.diagonal().cwiseInverse();
-    } else {
-      ichol.setInitialShift(1e-3);
-      ichol.compute(A);
-      if (ichol.info() != Eigen::Success) throw NumericalFailure("incomplete Cholesky factorisation failed");
+    if (b.norm() > 0) {
+      if (jacobi) {
+        inverse_diagonal = A.diagonal().cwiseInverse();
+      } else {
+        ichol.setInitialShift(1e-3);
+        ichol.compute(A);
+        if (ichol.info() != Eigen::Success) throw NumericalFailure("incomplete Cholesky factorisation failed");
+      }
     }
-    auto precondition = [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) {
-      if (jacobi)
-        z = inverse_diagonal.cwiseProduct(r);
-      else
-        z = ichol.solve(r);
-    };
-
-    Eigen::VectorXd r = b - A * x;
-    Eigen::VectorXd z(n), p(n), q(n);
-    precondition(r, z);
-    p = z;
-    Real rz = r.dot(z);
-    Real residual = r.norm() / b_norm;
-    int k = 0;
-    while (residual > options_.tolerance && k < options_.max_iterations) {
-      q.noalias() = A * p;
-      const Real alpha = rz / p.dot(q);
-      x += alpha * p;
-      r -= alpha * q;
-      residual = r.norm() / b_norm;
-      ++k;
-      if (residual <= options_.tolerance) break;
-      precondition(r, z);
-      const Real rz_next = r.dot(z);
-      p = z + (rz_next / rz) * p;
-      rz = rz_next;
-    }
-    stats.iterations = k;
-    stats.relative_residual = residual;
-    stats.converged = residual <= options_.tolerance;
+    const PcgResult result = preconditioned_cg(
+        [&](const Eigen::VectorXd& p) -> Eigen::VectorXd { return A * p; },
+        [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) {
+          if (jacobi)
+            z = inverse_diagonal.cwiseProduct(r);
+          else
+            z = ichol.solve(r);
+        },
+        b, x, options_.tolerance, options_.max_iterations);
+    stats.iterations = result.iterations;
+    stats.relative_residual = result.relative_residual;
+    stats.converged = result.converged;
     return stats;
   }
 

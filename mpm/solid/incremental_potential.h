@@ -154,13 +154,20 @@ class SolidIncrementalPotential {
   }
 
   // Requires energy(v) finite. Symmetric to the last bit; SPD when project_to_psd.
-  SparseMatrix hessian(const Vector& v, bool project_to_psd) const {
+  // dt^2 V0_p dP/dF(F_p(v)) per particle: the elastic Hessian's building block.
+  std::vector<TensorMat<dim>> particle_stiffness(const Vector& v, bool project_to_psd) const {
     const int n = particle_count();
-    std::vector<TensorMat<dim>> stiffness(n);  // dt^2 V0_p dP/dF(F_p)
+    std::vector<TensorMat<dim>> stiffness(n);
 #pragma omp parallel for schedule(static)
     for (int p = 0; p < n; ++p)
       stiffness[p] = dt_ * dt_ * volume_[p] *
                      material(p).first_piola_derivative(deformation_gradient(p, v), project_to_psd);
+    return stiffness;
+  }
+
+  SparseMatrix hessian(const Vector& v, bool project_to_psd) const {
+    const int n = particle_count();
+    const std::vector<TensorMat<dim>> stiffness = particle_stiffness(v, project_to_psd);
 
     SparseMatrix H(unknowns(), unknowns());
     H.resizeNonZeros(int(pattern_columns_.size()));
@@ -220,11 +227,7 @@ class SolidIncrementalPotential {
   Linearization linearize(const Vector& v, bool project_to_psd) const {
     const int n = particle_count();
     Linearization out;
-    out.stiffness.resize(n);
-#pragma omp parallel for schedule(static)
-    for (int p = 0; p < n; ++p)
-      out.stiffness[p] = dt_ * dt_ * volume_[p] *
-                         material(p).first_piola_derivative(deformation_gradient(p, v), project_to_psd);
+    out.stiffness = particle_stiffness(v, project_to_psd);
     out.diagonal = mass_;
     // H_(i a),(i a) = m_i + sum_p sum_cd A_(c dim + a),(d dim + a) b_i[c] b_i[d].
     for (int p = 0; p < n; ++p)

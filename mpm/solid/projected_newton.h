@@ -30,6 +30,7 @@
 #include <vector>
 
 #include "core/types.h"
+#include "linear_solver/pcg.h"
 
 namespace iqmpm {
 
@@ -103,37 +104,6 @@ struct HasHessianProducts<P, std::void_t<decltype(std::declval<const P&>().hessi
                                  std::declval<const P&>().linearize(std::declval<const typename P::Vector&>(), true),
                                  std::declval<const typename P::Vector&>()))>> : std::true_type {};
 
-// Diagonally preconditioned CG from x = 0 on products y = product(x), with Eigen's
-// ConjugateGradient stopping rule (|r| <= tolerance |b|) and preconditioner (1 / diagonal,
-// 1 where the diagonal is 0). Returns the iterations; `finished`: the rule was met.
-template <class Vector, class Product>
-int diagonal_pcg(const Product& product, const Vector& diagonal, const Vector& b, Vector& x, Real tolerance,
-                 int max_iterations, bool& finished) {
-  const Vector inverse = diagonal.unaryExpr([](Real d) { return d != 0 ? 1 / d : Real(1); });
-  x = Vector::Zero(b.size());
-  const Real b_norm2 = b.squaredNorm();
-  finished = true;
-  if (b_norm2 == 0) return 0;
-  const Real threshold = tolerance * tolerance * b_norm2;
-  Vector r = b;
-  Vector z = inverse.cwiseProduct(r);
-  Vector p = z;
-  Real rz = r.dot(z);
-  for (int k = 0; k < max_iterations; ++k) {
-    if (r.squaredNorm() <= threshold) return k;
-    const Vector q = product(p);
-    const Real alpha = rz / p.dot(q);
-    x += alpha * p;
-    r -= alpha * q;
-    z = inverse.cwiseProduct(r);
-    const Real rz_next = r.dot(z);
-    p = z + (rz_next / rz) * p;
-    rz = rz_next;
-  }
-  finished = r.squaredNorm() <= threshold;
-  return max_iterations;
-}
-
 template <class Potential>
 NewtonResult minimize_projected_newton(const Potential& potential, Eigen::Matrix<Real, Eigen::Dynamic, 1>& x,
                                        const ProjectedNewtonOptions& options = {}) {
@@ -189,12 +159,15 @@ NewtonResult minimize_projected_newton(const Potential& potential, Eigen::Matrix
           std::min(options.cg_max_tolerance, std::max(options.cg_min_tolerance, options.cg_forcing * g_norm / g0));
       if constexpr (HasHessianProducts<Potential>::value) {
         const auto linear = potential.linearize(x, options.project_hessian);
-        bool finished = false;
-        const Vector rhs = -g;
-        result.cg_iterations += diagonal_pcg(
-            [&](const Vector& y) { return potential.hessian_product(linear, y); }, linear.diagonal, rhs, d,
-            tolerance, options.cg_max_iterations, finished);
-        if (!finished) ++result.cg_unfinished;
+        // Eigen's DiagonalPreconditioner: 1 / diagonal, 1 where the diagonal is 0.
+        const Vector inverse = linear.diagonal.unaryExpr([](Real h) { return h != 0 ? 1 / h : Real(1); });
+        d = Vector::Zero(g.size());
+        const PcgResult cg_result = preconditioned_cg(
+            [&](const Vector& y) -> Vector { return potential.hessian_product(linear, y); },
+            [&](const Vector& r, Vector& z) { z = inverse.cwiseProduct(r); }, Vector(-g), d, tolerance,
+            options.cg_max_iterations);
+        result.cg_iterations += cg_result.iterations;
+        if (!cg_result.converged) ++result.cg_unfinished;
       } else {
         const SparseMatrix H = potential.hessian(x, options.project_hessian);  // cg keeps a reference
         cg.compute(H);
