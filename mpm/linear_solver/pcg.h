@@ -29,7 +29,8 @@ PcgResult preconditioned_cg(const Product& product, const Precondition& precondi
     result.converged = true;
     return result;
   }
-  Vector r = b - product(x);
+  // From x = 0 (Newton's direction) r = b exactly: no product needed.
+  Vector r = x.isZero(0) ? Vector(b) : Vector(b - product(x));
   Vector z(b.size()), p(b.size()), q(b.size());
   precondition(r, z);
   p = z;
