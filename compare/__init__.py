@@ -1,7 +1,7 @@
 """Comparison tool of the IQ-MPM validation harness.
 
 Reads IQ-MPM and OpenFOAM run folders and the experimental reference data, computes the
-errors defined in ``shared/design/benchmarks.md`` ("What error means") and writes
+errors defined in ``docs/benchmarks.md`` ("What error means") and writes
 Markdown reports with PNG plots. Entry point: ``compare/compare`` or ``python3 -m compare``.
 """
 

@@ -108,6 +108,7 @@ class BenchmarkResult:
     cost: CostResult | None = None
     plots: list[tuple[str, Path]] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    checks: list = field(default_factory=list)  # compare.expected.CheckResult, from expected.json
 
 
 @dataclass

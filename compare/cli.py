@@ -24,7 +24,7 @@ def _levels(text: str) -> list[int]:
 
 def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--data-dir", type=Path, default=None,
-                   help="reference data folder (default $IQMPM_DATA_DIR or <repo>/../shared/data)")
+                   help="reference data folder (default $IQMPM_DATA_DIR or <repo>/data)")
     p.add_argument("--fluid-material", type=int, default=0,
                    help="material id of fluid particles in frames (default 0)")
 
@@ -41,7 +41,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="scene stem or folder name (repeatable; default: all)")
     v.add_argument("--levels", type=_levels, default=[1], help="e.g. 1,2,3 (default 1)")
     v.add_argument("--out", type=Path, default=REPO_ROOT / "report", help="report folder")
-    v.add_argument("--jobs", type=int, default=1, help="child runs at a time (default 1)")
+    v.add_argument("--jobs", type=int, default=None,
+                   help="child runs at a time (default: the number of cores)")
     v.add_argument("--threads", type=int, default=None,
                    help="IQ-MPM --threads per run (default: cores / jobs)")
     v.add_argument("--foam-np", type=int, default=1, help="OpenFOAM processes per run")
@@ -61,7 +62,38 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--no-foam-cache", action="store_true", help="always rerun OpenFOAM")
     v.add_argument("--progress-interval", type=float, default=10.0,
                    help="seconds between progress lines while a child runs")
+    v.add_argument("--full", action="store_true",
+                   help="the full suite: every benchmark and every OpenFOAM reference (default "
+                        "without --benchmark: the quick suite)")
+    v.add_argument("--page", type=Path, default=None, metavar="PATH",
+                   help="also write the validation page here (e.g. docs/validation.md); "
+                        "OUT/validation.md is always written")
     _common(v)
+
+    d = sub.add_parser("docs", help="write the validation page (docs/validation.md) from the "
+                                    "latest reports and every expected.json")
+    d.add_argument("--out", type=Path, default=REPO_ROOT / "report",
+                   help="report folder to read (OUT/*/entry.json)")
+    d.add_argument("--page", type=Path, default=REPO_ROOT / "docs" / "validation.md",
+                   help="the page to write (default <repo>/docs/validation.md)")
+    d.add_argument("--repo", type=Path, default=REPO_ROOT, help="repository root")
+
+    e = sub.add_parser("expected", help="check every benchmarks/*/expected.json and print its checks")
+    e.add_argument("--repo", type=Path, default=REPO_ROOT, help="repository root")
+
+    fr = sub.add_parser("foam-reference",
+                        help="run (or reuse) an OpenFOAM case and ship a few of its metric "
+                             "columns as a reference run folder in the repository")
+    fr.add_argument("case", help="OpenFOAM case (foam_cases/<case>)")
+    fr.add_argument("--level", type=int, required=True)
+    fr.add_argument("--column", action="append", required=True, metavar="NAME",
+                    help="metric column to keep (repeatable)")
+    fr.add_argument("--out", type=Path, required=True,
+                    help="reference run folder to write (metrics.csv + summary.json)")
+    fr.add_argument("--foam-runs-dir", type=Path, default=None,
+                    help="OpenFOAM run cache (default <repo>/foam_runs)")
+    fr.add_argument("--repo", type=Path, default=REPO_ROOT, help="repository root")
+    fr.add_argument("--timeout", type=float, default=3600.0, help="seconds for the OpenFOAM run")
 
     s = sub.add_parser("series", help="errors of metric series of one run against another")
     s.add_argument("ours", type=Path, help="run folder or metrics.csv")
@@ -113,7 +145,7 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 
     repo = args.repo.resolve()
     solver = args.solver or Path(os.environ.get("IQMPM_BIN", repo / "build" / "iqmpm"))
-    jobs = max(1, args.jobs)
+    jobs = max(1, args.jobs if args.jobs is not None else cpu_count())
     settings = Settings(
         repo=repo, out=args.out.resolve(),
         runs_dir=(args.runs_dir or repo / "out" / "validate").resolve(),
@@ -123,8 +155,44 @@ def _cmd_validate(args: argparse.Namespace) -> int:
         foam_end_time=args.foam_end_time, sets=args.set, timeout=args.timeout,
         reuse_solver=args.reuse, foam_cache=not args.no_foam_cache,
         progress_interval=args.progress_interval, fluid_material=args.fluid_material,
-        benchmarks=args.benchmark)
+        benchmarks=args.benchmark, full=args.full,
+        page=args.page.resolve() if args.page is not None else None)
     return validate(settings)
+
+
+def _cmd_docs(args: argparse.Namespace) -> int:
+    from compare.page import write_validation_page
+
+    if not args.out.is_dir():
+        raise CompareError(f"{args.out}: no report folder (run compare validate first)")
+    print(write_validation_page(args.out, args.page, args.repo.resolve()))
+    return 0
+
+
+def _cmd_expected(args: argparse.Namespace) -> int:
+    from compare import expected as exp
+
+    checks = exp.load_all(args.repo.resolve())
+    if not checks:
+        raise CompareError(f"no {args.repo}/benchmarks/*/{exp.EXPECTED_FILE}")
+    print("| benchmark | metric | value | margin | source |")
+    print("|---|---|---|---|---|")
+    for name, items in checks.items():
+        for c in items:
+            margin = "-" if c.kind == "status" else (
+                "none (information)" if c.margin is None else f"{c.margin.kind} {c.margin.text()}")
+            print(f"| {name} | {c.metric} | {c.value} | {margin} | {c.source} |")
+    return 0
+
+
+def _cmd_foam_reference(args: argparse.Namespace) -> int:
+    from compare.validate import ship_foam_reference
+
+    repo = args.repo.resolve()
+    print(ship_foam_reference(repo, args.case, args.level, args.column, args.out.resolve(),
+                              (args.foam_runs_dir or repo / "foam_runs").resolve(),
+                              args.timeout))
+    return 0
 
 
 def _metrics_of(path: Path):
@@ -251,16 +319,25 @@ def _cmd_cost(args: argparse.Namespace) -> int:
 def _cmd_report(args: argparse.Namespace) -> int:
     from compare import report
 
+    from compare import expected as exp
+
     result, out_dir = _analyse(args)
+    checks = exp.load_all(REPO_ROOT).get(result.benchmark.name, [])
+    result.checks = exp.evaluate(result.benchmark, checks, result.ours, result.foam,
+                                 _data_dir(args))
     path = report.write_report(result, out_dir)
     failed = any(not r.ok for r in result.ours + result.foam)
     status = lambda runs: "; ".join(f"{r.label} {r.status}" for r in runs) or "none"  # noqa: E731
     report.write_entry(report.IndexEntry(result.benchmark.name, status(result.ours),
                                          status(result.foam) if result.foam else "not given",
-                                         report.headline(result), path, failed), out_dir)
+                                         report.headline(result), path, failed,
+                                         checks=result.checks, title=result.benchmark.title),
+                       out_dir)
     index = report.write_index(report.read_entries(args.out), args.out, {"command": "report"})
     print(f"report: {path}\nindex: {index}")
-    return 1 if failed else 0
+    if result.checks:
+        print(f"checks (expected.json): {exp.Tally().add(result.checks).text()}")
+    return 1 if failed or any(c.result == exp.FAIL for c in result.checks) else 0
 
 
 def _cmd_registry(args: argparse.Namespace) -> int:
@@ -282,7 +359,8 @@ def _cmd_index(args: argparse.Namespace) -> int:
 
 COMMANDS = {"validate": _cmd_validate, "series": _cmd_series, "fields": _cmd_fields,
             "convergence": _cmd_convergence, "cost": _cmd_cost, "report": _cmd_report,
-            "registry": _cmd_registry, "index": _cmd_index}
+            "registry": _cmd_registry, "index": _cmd_index, "docs": _cmd_docs,
+            "expected": _cmd_expected, "foam-reference": _cmd_foam_reference}
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -23,12 +23,16 @@ class CompareError(Exception):
     """An input problem the user can fix (missing file or column, bad value)."""
 
 
+DATA_DIR = REPO_ROOT / "data"  # the experimental reference data, shipped with the repository
+
+
 def default_data_dir(repo_root: Path = REPO_ROOT) -> Path:
-    """Reference-data folder: ``$IQMPM_DATA_DIR`` or ``<repo>/../shared/data``."""
+    """Reference-data folder: ``$IQMPM_DATA_DIR`` or ``<repo>/data`` (found from this
+    package's own path, so a clone needs nothing beside it)."""
     env = os.environ.get("IQMPM_DATA_DIR")
     if env:
         return Path(env)
-    return (repo_root / ".." / "shared" / "data").resolve()
+    return repo_root / "data"
 
 
 # --------------------------------------------------------------------------- CSV tables

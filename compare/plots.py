@@ -37,7 +37,7 @@ def _finish(fig: plt.Figure, ax: plt.Axes, path: Path, title: str, xlabel: str,
 
 def line_plot(path: Path, curves: Sequence[Curve], title: str, xlabel: str,
               ylabel: str) -> Path:
-    """Series or profiles on shared axes."""
+    """Series or profiles on common axes."""
     fig, ax = plt.subplots(figsize=(7, 4.2))
     for c in curves:
         marker = "o" if "o" in c.style else None

@@ -131,6 +131,13 @@ class Benchmark:
     # Seconds a run of this benchmark may take at least (validate uses the larger of this
     # and --timeout): a long benchmark must not die at the default 900 s.
     min_timeout: float = 0.0
+    # its OpenFOAM case at level 1 in the quick suite; a slow one (minutes) runs only when
+    # the benchmark is named or with --full (a cached run with unchanged inputs is still used)
+    foam_quick: bool = True
+    # typical wall time (s, one thread, default resolution; OpenFOAM level 1): validate
+    # starts the longest runs first when it has no earlier run to go by
+    cost_s: float = 10.0
+    foam_cost_s: float = 20.0
 
     def metric(self, column: str) -> MetricSpec | None:
         for spec in self.metrics:
@@ -213,8 +220,22 @@ def _hydrostatic(name: str, dim: int) -> Benchmark:
 
 REGISTRY: dict[str, Benchmark] = {}
 
+# Typical wall times on the 2-core reference machine (README, Measured; one thread, default
+# resolution; OpenFOAM level 1, set-up and VTK included): (IQ-MPM s, OpenFOAM s). They only
+# order validate's queue, longest first.
+_COST_S: dict[str, tuple[float, float]] = {
+    "hydrostatic_2d": (3, 15), "hydrostatic_3d": (75, 0), "dam_break": (6, 20),
+    "dam_break_obstacle": (12, 30), "elastic_gate": (55, 0), "submerged_plate": (4, 0),
+    "submerged_block": (12, 0), "neutral_block": (95, 0), "floating_block": (115, 480),
+    "floating_block_roll": (155, 500), "floating_block_light": (110, 720),
+    "floating_block_3d": (90, 0), "floating_block_3d_fine": (5000, 0),
+    "elastic_sphere": (250, 0), "cantilever": (15, 25),
+}
+
 
 def _register(b: Benchmark) -> None:
+    if b.name in _COST_S:
+        b = replace(b, cost_s=float(_COST_S[b.name][0]), foam_cost_s=float(_COST_S[b.name][1]))
     REGISTRY[b.name] = b
 
 
@@ -376,6 +397,10 @@ def _floating(name: str, title: str, equilibrium_com_y: float, draft: float, rol
         scalars=tuple(scalars),
         primary=("com_y", "foam"),
         quick=quick,
+        # interFoam (overset) takes 8-12 min at level 1 on a fresh 2-core machine: the
+        # floating blocks' interFoam references (periods, decay) belong to the full suite;
+        # their checks (Archimedes draft, volume) need no OpenFOAM run.
+        foam_quick=False,
     )
 
 

@@ -8,11 +8,12 @@ import math
 import os
 import platform
 import subprocess
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Sequence
 
 from compare import __version__
+from compare import expected as exp
 from compare.analysis import BenchmarkResult
 from compare.io import REPO_ROOT, Run
 
@@ -90,6 +91,22 @@ def _git_describe() -> str:
 # --------------------------------------------------------------------------- one benchmark
 
 
+def checks_section(checks: Sequence[exp.CheckResult]) -> list[str]:
+    """The report's table of expected.json checks (empty without checks)."""
+    if not checks:
+        return []
+    tally = exp.Tally().add(checks)
+    lines = ["## Checks (expected.json)", "",
+             f"{tally.text()}. Judged on the IQ-MPM run at the default resolution (level 1); "
+             "scalars: |value - expected| within the margin; series: relative L2 error (or "
+             "RMS difference for an absolute margin) within it; `info`: reported without a "
+             "criterion; `not checked` never counts as a pass.", ""]
+    lines += _table(exp.CHECK_HEADER, exp.markdown_rows(checks))
+    lines.append("")
+    return lines
+
+
+
 def _run_settings(runs: Sequence[Run]) -> list[str]:
     rows = []
     for r in runs:
@@ -139,12 +156,14 @@ def write_report(result: BenchmarkResult, out_dir: Path, extra_status: Sequence[
     lines: list[str] = [f"# {b.name}: {b.title}", "",
                         f"Generated {_dt.datetime.now().isoformat(timespec='seconds')} by "
                         f"compare {__version__}. Errors as defined in "
-                        f"`shared/design/benchmarks.md` (see `compare/README.md`).", ""]
+                        f"`docs/benchmarks.md` (see `compare/README.md`).", ""]
     lines += ["## Status", ""]
     for r in result.ours + result.foam:
         lines.append(f"- {r.label}: {r.status}")
     lines += [f"- {s}" for s in extra_status]
     lines.append("")
+
+    lines += checks_section(result.checks)
 
     lines += ["## Errors", ""]
     if result.series_rows:
@@ -242,8 +261,15 @@ class IndexEntry:
     openfoam: str
     headline: str  # key errors
     report: Path | None
-    failed: bool
+    failed: bool  # a run or the comparison failed
     generated: str = ""
+    checks: list[exp.CheckResult] = field(default_factory=list)
+    commit: str = ""
+    title: str = ""
+
+    @property
+    def checks_failed(self) -> bool:
+        return any(c.result == exp.FAIL for c in self.checks)
 
 
 ENTRY_FILE = "entry.json"
@@ -255,7 +281,9 @@ def write_entry(entry: IndexEntry, bench_dir: Path) -> None:
     data = {"name": entry.name, "iqmpm": entry.iqmpm, "openfoam": entry.openfoam,
             "headline": entry.headline, "report": entry.report.name if entry.report else None,
             "failed": entry.failed,
-            "generated": entry.generated or _dt.datetime.now().isoformat(timespec="seconds")}
+            "generated": entry.generated or _dt.datetime.now().isoformat(timespec="seconds"),
+            "commit": entry.commit or _git_describe(), "title": entry.title,
+            "checks": [c.to_json() for c in entry.checks]}
     (bench_dir / ENTRY_FILE).write_text(json.dumps(data, indent=1))
 
 
@@ -267,10 +295,20 @@ def read_entries(out: Path) -> list[IndexEntry]:
             entries.append(IndexEntry(
                 d["name"], d["iqmpm"], d["openfoam"], d["headline"],
                 path.parent / d["report"] if d.get("report") else None, bool(d["failed"]),
-                d.get("generated", "")))
-        except (OSError, json.JSONDecodeError, KeyError):
+                d.get("generated", ""),
+                [exp.CheckResult.from_json(c) for c in d.get("checks", [])],
+                d.get("commit", ""), d.get("title", "")))
+        except (OSError, json.JSONDecodeError, KeyError, TypeError):
             continue
     return entries
+
+
+def checks_cell(checks: Sequence[exp.CheckResult]) -> str:
+    if not checks:
+        return "-"
+    text = exp.Tally().add(checks).text()
+    return text.replace(f"{exp.FAIL}", "**FAIL**") if any(
+        c.result == exp.FAIL for c in checks) else text
 
 
 def headline(result: BenchmarkResult) -> str:
@@ -289,15 +327,27 @@ def write_index(entries: Sequence[IndexEntry], out: Path, settings: dict[str, An
              f"Generated {_dt.datetime.now().isoformat(timespec='seconds')} by compare "
              f"{__version__}.", ""]
     failed = [e.name for e in entries if e.failed]
+    check_failed = [e.name for e in entries if e.checks_failed]
+    tally = exp.Tally()
+    for e in entries:
+        tally.add(e.checks)
     lines.append(f"**{len(entries)} benchmarks, {len(failed)} with a failed run**"
-                 + (f": {', '.join(failed)}" if failed else "") + ".")
+                 + (f": {', '.join(failed)}" if failed else "") + "; "
+                 f"**checks (expected.json): {tally.text()}**"
+                 + (f"; failed checks in {', '.join(check_failed)}" if check_failed else "")
+                 + ".")
     lines.append("")
     rows = []
     for e in entries:
         link = f"[report]({os.path.relpath(e.report, out)})" if e.report else "-"
-        rows.append([e.name, e.iqmpm, e.openfoam, e.headline, link, e.generated or "-"])
-    lines += _table(["benchmark", "IQ-MPM", "OpenFOAM", "key errors (rel. L2 / rel.)",
+        rows.append([e.name, e.iqmpm, e.openfoam, checks_cell(e.checks), e.headline, link,
+                     e.generated or "-"])
+    lines += _table(["benchmark", "IQ-MPM", "OpenFOAM", "checks", "key errors (rel. L2 / rel.)",
                      "report", "generated"], rows)
+    failing = [c for e in entries for c in e.checks if c.result == exp.FAIL]
+    if failing:
+        lines += ["", "### Failed checks", ""]
+        lines += _table(["benchmark"] + exp.CHECK_HEADER, exp.markdown_rows(failing, True))
     lines += ["", "## Settings", ""]
     lines += _table(["setting", "value"], [[k, f"`{v}`"] for k, v in settings.items()])
     lines += ["", "## Software versions", ""]

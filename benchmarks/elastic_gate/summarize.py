@@ -13,7 +13,7 @@ import sys
 
 import numpy as np
 
-DATA = pathlib.Path(__file__).resolve().parents[2].parent / "shared" / "data" / "antoci2007_elastic_gate_tip_displacement.csv"
+DATA = pathlib.Path(__file__).resolve().parents[2] / "data" / "antoci2007_elastic_gate_tip_displacement.csv"
 
 
 def experiment(component):

@@ -1,10 +1,11 @@
 """The registry of OpenFOAM reference cases: per-level parameters, setup
 commands and metric extraction. Geometry and materials follow
-design/benchmarks.md; the template folders hold the OpenFOAM dictionaries."""
+docs/benchmarks.md; the template folders hold the OpenFOAM dictionaries."""
 
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -89,14 +90,14 @@ def dam_break_extract(case: Path, p: Params, log: Path) -> Extracted:
     return Extracted(t, cols, sc)
 
 
-KO_DATA = Path("/work/shared/data/koshizuka_oka_1996_surge_front_pysph.csv")
+KO_DATA = "koshizuka_oka_1996_surge_front_pysph.csv"
 
 
 def koshizuka_oka_error(t: np.ndarray, xf: np.ndarray | None) -> dict[str, object]:
     """Relative L2 of Z = x_f/a vs T = t sqrt(2g/a) against Koshizuka & Oka,
     over the data points with T in [0, 2.5]; the simulation is interpolated
     onto the data times, with its initial state (Z = 1 at T = 0) prepended."""
-    data_file = _data_file(KO_DATA.name)
+    data_file = _data_file(KO_DATA)
     if xf is None or len(t) == 0 or data_file is None:
         return {}
     d = np.loadtxt(data_file, delimiter=",", comments="#", skiprows=4)
@@ -110,9 +111,13 @@ def koshizuka_oka_error(t: np.ndarray, xf: np.ndarray | None) -> dict[str, objec
             "front_l2_points": int(sel.sum())}
 
 
+DATA_DIR = Path(__file__).resolve().parents[2] / "data"  # <repo>/data, shipped with it
+
+
 def _data_file(name: str) -> Path | None:
-    for root in (Path("/work/shared/data"),
-                 Path(__file__).resolve().parents[2] / "shared" / "data"):
+    """A reference-data file: ``$IQMPM_DATA_DIR/name``, else ``<repo>/data/name``."""
+    env = os.environ.get("IQMPM_DATA_DIR")
+    for root in ([Path(env)] if env else []) + [DATA_DIR]:
         if (root / name).exists():
             return root / name
     return None

@@ -16,7 +16,7 @@
 #include "core/errors.h"
 #include "core/log.h"
 #include "scene/scene.h"
-#include "simulation/runner.h"
+#include "run/runner.h"
 
 namespace {
 

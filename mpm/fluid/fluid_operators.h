@@ -166,7 +166,7 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
   // With interface quadrature (real_fluid_bins given), a corner is a fluid unknown only when
   // one of its cells holds a real fluid particle: corners reached only by fluid borrowed at
   // IQ points lie inside the solid; left free they let the fluid leak through the per-cell
-  // interface constraint, so the caller gives them the solid's velocity (README, coupling).
+  // interface constraint, so the caller gives them the solid's velocity (docs/method.md#interior-corners).
   // So do the corners in `solid_corners`, well inside a solid: a fluid particle that strays
   // there must not free them, or the leak feeds itself.
   auto touches_real_fluid = [&](int k) {

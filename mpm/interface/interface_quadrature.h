@@ -1,15 +1,14 @@
 // Interface quadrature (method.md §3 step 3, §4): the points where the free-slip coupling
 // condition (v_f - v_s) . n = 0 is imposed, one multiplier h per dual cell holding them.
 //
-//  * IQ points: solid particles within coupling.interface_reach (default 0.5 dx, the
-//    reference code's) of some fluid particle (found through the particle bins: a neighbour
+//  * IQ points: solid particles within coupling.interface_reach (0.6 dx; the reference
+//    code's 0.5) of some fluid particle (found through the particle bins: a neighbour
 //    lies in the 3^dim block of dual cells around the particle).
-//  * Borrowed fluid: every fluid particle shares its volume equally among itself and its
+//  * Borrowed volume: every fluid particle shares its volume equally among itself and its
 //    solid neighbours, so each IQ point is also a fluid quadrature point of G^f: the
-//    divergence constraint reaches into the interface cells. By default only the volume is
-//    borrowed and the fluid keeps its mass (coupling.borrowed_fluid = "volume"); the
-//    reference code lends the mass too ("mass"), which weighs the lent water twice next to
-//    full cells (README, coupling).
+//    divergence constraint reaches into the interface cells. The fluid keeps its mass;
+//    the reference code lends the mass too, which weighs the lent water twice next to
+//    full cells (docs/method.md#borrowed-volume).
 //  * Normal: the normalised gradient of the solid grid mass at the point (into the solid),
 //    the mass reflected across the slip walls first (mass_reflected_across_walls).
 //  * Area: a disk of the particle's current volume: 2 sqrt(V / pi) (a length) in 2-D,
@@ -48,9 +47,9 @@ InterfacePoints<dim> find_interface_points(const Grid<dim>& grid, const Particle
   if (fluid.empty() || solid.empty()) return iq;
   const GridLayout<dim> cells = grid.dual_cells();
   // Seeded lattices of two particles a cell meet exactly dx/2 apart: such ties count. At a
-  // reach of exactly dx/2 (the reference code's, the default) a sub-micron motion breaks
-  // them, and rows of IQ points drop out and come back step by step; 0.6 dx keeps the first
-  // layer and stays below the diagonal neighbours at dx/sqrt(2) (coupling.interface_reach).
+  // reach of exactly dx/2 (the reference code's) a sub-micron motion breaks them, and rows
+  // of IQ points drop out and come back step by step; 0.6 dx keeps the first layer and
+  // stays below the diagonal neighbours at dx/sqrt(2) (docs/method.md#interface-reach).
   const Real reach2 = std::pow(reach_in_dx * grid.dx * (1 + 1e-9), 2);
   for (std::size_t s = 0; s < solid.size(); ++s) {
     const Vec<dim>& xs = solid.position[s];
@@ -85,12 +84,11 @@ Vec<dim> clamped_inside_cell(const Grid<dim>& grid, const Vec<dim>& x) {
 }
 
 // One fluid quadrature point per IQ point, carrying the volume its lenders share with it
-// and the lenders' velocity and affine field there; its mass is the lent mass when
-// with_mass (coupling.borrowed_fluid = "mass"), else zero: a pure G^f point that adds no
-// weight.
+// and the lenders' velocity and affine field there; massless: a pure G^f point that adds
+// no weight.
 template <int dim>
 Particles<dim> borrowed_fluid_points(const Grid<dim>& grid, const Particles<dim>& fluid, const Particles<dim>& solid,
-                                     const InterfacePoints<dim>& iq, bool with_mass) {
+                                     const InterfacePoints<dim>& iq) {
   Particles<dim> out;
   for (int q = 0; q < iq.size(); ++q) {
     Real mass = 0, volume = 0;
@@ -105,27 +103,8 @@ Particles<dim> borrowed_fluid_points(const Grid<dim>& grid, const Particles<dim>
       momentum += share * (fluid.velocity[p] + fluid.affine[p] * (x - fluid.position[p]));
       affine += share * fluid.affine[p];
     }
-    out.add(x, momentum / mass, with_mass ? mass : Real(0), volume);
+    out.add(x, momentum / mass, Real(0), volume);
     out.affine.back() = affine / mass;
-  }
-  return out;
-}
-
-// The reference code's quadrature (coupling.borrowed_fluid = "mass"): the fluid particles
-// with their mass and volume divided by share_count, then the borrowed points with the
-// lent mass. Used for the fluid P2G, M^f and G^f.
-template <int dim>
-Particles<dim> fluid_quadrature_lending_mass(const Grid<dim>& grid, const Particles<dim>& fluid,
-                                             const Particles<dim>& solid, const InterfacePoints<dim>& iq) {
-  Particles<dim> out = fluid;
-  for (std::size_t p = 0; p < fluid.size(); ++p) {
-    out.mass[p] /= iq.share_count[p];
-    out.initial_volume[p] /= iq.share_count[p];
-  }
-  const Particles<dim> borrowed = borrowed_fluid_points(grid, fluid, solid, iq, true);
-  for (std::size_t q = 0; q < borrowed.size(); ++q) {
-    out.add(borrowed.position[q], borrowed.velocity[q], borrowed.mass[q], borrowed.initial_volume[q]);
-    out.affine.back() = borrowed.affine[q];
   }
   return out;
 }
@@ -150,8 +129,7 @@ void for_each_solid_weight(const Grid<dim>& grid, const IVec<dim>& corner, const
 // normals of its particles next to the wall lie along the wall. Without it they tilt
 // towards the wall (the body's mass falls off into the padding layer), and the one
 // constraint per cell lets water slide along the wall into the body (measured: a gate
-// clamped to the floor, holding still water, leaked under itself from 0.5 s on; README,
-// coupling). A body more than 1.5 dx from a wall has no mass in the padding layer and is
+// clamped to the floor, holding still water, leaked under itself from 0.5 s on; docs/method.md#walls-mirror-a-body). A body more than 1.5 dx from a wall has no mass in the padding layer and is
 // unaffected.
 template <int dim>
 std::vector<Real> mass_reflected_across_walls(const Grid<dim>& grid, std::vector<Real> node_mass,

@@ -22,14 +22,15 @@ class PcgSolver final : public LinearSolver {
  public:
   explicit PcgSolver(const LinearSolverOptions& options) : options_(options) {}
   bool solves_quasi_definite() const override { return false; }
-  std::string name() const override { return "pcg-" + options_.preconditioner; }
+  std::string name() const override { return options_.preconditioner == Preconditioner::jacobi ? "pcg-jacobi" : "pcg-ichol"; }
+  LinearSolverKind kind() const override { return LinearSolverKind::pcg; }
 
   LinearSolveStats solve(const Sparse& A, const Eigen::VectorXd& b, Eigen::VectorXd& x) override {
     LinearSolveStats stats;
-    stats.method = "pcg-" + options_.preconditioner;
+    stats.method = name();
     const int n = int(b.size());
     if (x.size() != n || !options_.warm_start) x = Eigen::VectorXd::Zero(n);
-    const bool jacobi = options_.preconditioner == "jacobi";
+    const bool jacobi = options_.preconditioner == Preconditioner::jacobi;
     Eigen::VectorXd inverse_diagonal;
     // Eigen's incomplete Cholesky with threshold fill (Lin & More), AMD ordering and an
     // automatic diagonal shift on breakdown: the Q1-P0 stencil is not an M-matrix, and a
@@ -98,6 +99,7 @@ class DirectSolver final : public LinearSolver {
   explicit DirectSolver(std::string name) : name_(std::move(name)) {}
   bool solves_quasi_definite() const override { return false; }  // LL^T
   std::string name() const override { return name_; }
+  LinearSolverKind kind() const override { return LinearSolverKind::cholmod; }
 
   LinearSolveStats solve(const Sparse& A, const Eigen::VectorXd& b, Eigen::VectorXd& x) override {
     LinearSolveStats stats;
@@ -152,7 +154,7 @@ class DirectSolver final : public LinearSolver {
 // (measured on elastic_gate: 4 on average, of 2700), so they skip the factorisation. If a
 // modified factor's relative residual is above 1e-10, the matrix is factorised afresh.
 // Measured against Eigen's simplicial LDL^T, which it replaced: 2.4 / 13.7 ms a solve on
-// the dam break at a/32 / a/64 against 2.3 / 14.1 (README, Measured); the unilateral
+// the dam break at a/32 / a/64 against 2.3 / 14.1 (docs/journal.md); the unilateral
 // gate's solve stage 12.8 -> 7.4 s.
 class UpdatableLdlSolver final : public LinearSolver {
  public:
@@ -174,6 +176,7 @@ class UpdatableLdlSolver final : public LinearSolver {
 
   bool solves_quasi_definite() const override { return true; }
   std::string name() const override { return "ldlt"; }
+  LinearSolverKind kind() const override { return LinearSolverKind::ldlt; }
   void expect_row_changes(std::vector<int> released, std::vector<int> restored) override {
     released_ = std::move(released);
     restored_ = std::move(restored);
@@ -313,17 +316,22 @@ class UpdatableLdlSolver final : public LinearSolver {
 };
 }  // namespace
 
-std::string linear_solver_name(const LinearSolverOptions& options, int unknowns, int dim) {
-  if (options.method == "cholmod") return "cholmod";
-  if (options.method == "ldlt" || (options.method == "auto" && dim == 2 && unknowns <= options.direct_max_unknowns))
-    return "ldlt";
-  return "pcg-" + options.preconditioner;
+LinearSolverKind linear_solver_kind(const LinearSolverOptions& options, int unknowns, int dim) {
+  switch (options.method) {
+    case LinearSolverMethod::cholmod: return LinearSolverKind::cholmod;
+    case LinearSolverMethod::ldlt: return LinearSolverKind::ldlt;
+    case LinearSolverMethod::pcg: return LinearSolverKind::pcg;
+    case LinearSolverMethod::automatic: break;
+  }
+  return dim == 2 && unknowns <= options.direct_max_unknowns ? LinearSolverKind::ldlt : LinearSolverKind::pcg;
 }
 
 std::unique_ptr<LinearSolver> make_linear_solver(const LinearSolverOptions& options, int unknowns, int dim) {
-  const std::string name = linear_solver_name(options, unknowns, dim);
-  if (name == "cholmod") return std::make_unique<DirectSolver<Eigen::CholmodDecomposition<Sparse, Eigen::Lower>>>(name);
-  if (name == "ldlt") return std::make_unique<UpdatableLdlSolver>();
+  switch (linear_solver_kind(options, unknowns, dim)) {
+    case LinearSolverKind::cholmod: return std::make_unique<DirectSolver<Eigen::CholmodDecomposition<Sparse, Eigen::Lower>>>("cholmod");
+    case LinearSolverKind::ldlt: return std::make_unique<UpdatableLdlSolver>();
+    case LinearSolverKind::pcg: break;
+  }
   return std::make_unique<PcgSolver>(options);
 }
 

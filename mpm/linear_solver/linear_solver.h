@@ -11,9 +11,14 @@
 
 namespace iqmpm {
 
+enum class LinearSolverMethod { automatic, pcg, cholmod, ldlt };
+enum class Preconditioner { ichol, jacobi };
+// What make_linear_solver makes for a given system (automatic resolved).
+enum class LinearSolverKind { pcg, cholmod, ldlt };
+
 struct LinearSolverOptions {
-  std::string method = "auto";          // auto | pcg | cholmod | ldlt
-  std::string preconditioner = "ichol";  // ichol | jacobi (pcg only)
+  LinearSolverMethod method = LinearSolverMethod::automatic;
+  Preconditioner preconditioner = Preconditioner::ichol;  // pcg only
   Real tolerance = 1e-8;                // relative residual ||b - A x|| / ||b||
   int max_iterations = 2000;
   int direct_max_unknowns = 100000;     // auto, 2-D: direct LDL^T up to this size, PCG above
@@ -40,6 +45,7 @@ class LinearSolver {
   // The method, as LinearSolveStats::method. A direct solver keeps its symbolic analysis
   // for the next solve of the same pattern, so a caller may keep one solver per system.
   virtual std::string name() const = 0;
+  virtual LinearSolverKind kind() const = 0;
   // The next solve's matrix differs from the last one solved only in these rows and
   // columns: `released` ones became unit vectors, `restored` ones got their assembled
   // entries back (the active set's rounds, PressureSystem::release). The LDL^T solver then
@@ -48,11 +54,11 @@ class LinearSolver {
 };
 
 // Chooses the solver for a system of `unknowns` rows according to the options. "auto" is
-// LDL^T for 2-D systems up to direct_max_unknowns and PCG otherwise (README, Measured:
+// LDL^T for 2-D systems up to direct_max_unknowns and PCG otherwise (docs/journal.md:
 // benchmarks/solvers/run.sh on the dam break); in 3-D direct fill-in explodes (CHOLMOD
 // 2.8 s a solve on the 3-D hydrostatic tank, warm-started PCG 0.1 s).
 std::unique_ptr<LinearSolver> make_linear_solver(const LinearSolverOptions& options, int unknowns, int dim);
-// The name() of the solver make_linear_solver would choose, without making it.
-std::string linear_solver_name(const LinearSolverOptions& options, int unknowns, int dim);
+// The kind of solver make_linear_solver would choose, without making it.
+LinearSolverKind linear_solver_kind(const LinearSolverOptions& options, int unknowns, int dim);
 
 }  // namespace iqmpm

@@ -9,6 +9,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/types.h"
@@ -33,6 +34,21 @@ class JsonReader {
   bool boolean(const std::string& key, std::optional<bool> fallback, const std::string& meaning);
   std::string choice(const std::string& key, std::optional<std::string> fallback,
                      const std::vector<std::string>& accepted, const std::string& meaning);
+  // A choice read into an enum once, so that nothing downstream compares strings.
+  template <class Enum>
+  Enum option(const std::string& key, std::optional<Enum> fallback, const std::vector<std::pair<std::string, Enum>>& names,
+              const std::string& meaning) {
+    std::vector<std::string> accepted;
+    std::optional<std::string> fallback_name;
+    for (const auto& [name, value] : names) {
+      accepted.push_back(name);
+      if (fallback && value == *fallback) fallback_name = name;
+    }
+    const std::string chosen = choice(key, fallback_name, accepted, meaning);
+    for (const auto& [name, value] : names)
+      if (name == chosen) return value;
+    return names.front().second;  // documentation mode without a default
+  }
   std::string text(const std::string& key, std::optional<std::string> fallback, const std::string& meaning);
   // A fixed-length array of numbers (e.g. a point in `length` dimensions).
   std::vector<Real> vector(const std::string& key, std::optional<std::vector<Real>> fallback, int length,

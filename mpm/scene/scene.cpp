@@ -17,9 +17,9 @@ const char* kSideNames[3][2] = {{"x-", "x+"}, {"y-", "y+"}, {"z-", "z+"}};
 
 ShapeSpec read_shape(JsonReader& r, int dim) {
   ShapeSpec s;
-  s.type = r.choice("type", std::nullopt, {"box", "sphere", "polygon"}, "shape kind");
+  s.type = r.option<ShapeType>("type", std::nullopt, {{"box", ShapeType::box}, {"sphere", ShapeType::sphere}, {"polygon", ShapeType::polygon}}, "shape kind");
   const bool doc = r.documenting();
-  if (s.type == "box" || doc) {
+  if (s.type == ShapeType::box || doc) {
     s.min = r.vector("min", std::nullopt, dim, "box: lower corner (m)");
     s.max = r.vector("max", std::nullopt, dim, "box: upper corner (m)");
     for (int a = 0; a < dim && !doc; ++a)
@@ -27,11 +27,11 @@ ShapeSpec read_shape(JsonReader& r, int dim) {
         throw InputError(fmt::format("scene key '{}.max': must exceed min on every axis (axis {}: {} <= {})",
                                      r.path(), a, s.max[a], s.min[a]));
   }
-  if (s.type == "sphere" || doc) {
+  if (s.type == ShapeType::sphere || doc) {
     s.centre = r.vector("centre", std::nullopt, dim, "sphere (disk in 2-D): centre (m)");
     s.radius = r.number("radius", std::nullopt, 0, kInf, "sphere: radius (m)", true);
   }
-  if (s.type == "polygon" || doc) {
+  if (s.type == ShapeType::polygon || doc) {
     if (dim != 2 && !doc) throw InputError(fmt::format("scene key '{}.type' = \"polygon\": polygons are 2-D only", r.path()));
     s.vertices = r.numbers("vertices", std::nullopt, 6, "polygon (2-D): flat list x0, y0, x1, y1, ... (m), at least 3 vertices");
     if (!doc && s.vertices.size() % 2 != 0)
@@ -44,50 +44,54 @@ ShapeSpec read_shape(JsonReader& r, int dim) {
 ProbeSpec read_probe(JsonReader& r, int dim, const std::vector<Real>& domain_min, const std::vector<Real>& domain_max) {
   ProbeSpec p;
   const bool doc = r.documenting();
-  p.type = r.choice("type", std::nullopt,
-                    {"front", "water_height", "pressure", "hydrostatic_head", "wall_force", "max_speed", "volume", "particle_volume", "hydrostatic_pressure_error",
-                     "displacement", "solid_force", "solid_com", "solid_velocity", "solid_angle"},
-                    "what the probe measures (a metrics.csv column per probe)");
-  const std::string default_name = p.type == "front" ? "front_x"
-                                   : p.type == "water_height" ? "height_left"
-                                   : p.type == "pressure" ? "pressure_right"
-                                   : p.type == "wall_force" ? "wall_force_x"
-                                   : p.type == "hydrostatic_pressure_error" ? "pressure_l2_error"
-                                   : p.type;
+  const std::vector<std::pair<std::string, ProbeType>> types = {
+      {"front", ProbeType::front}, {"water_height", ProbeType::water_height}, {"pressure", ProbeType::pressure},
+      {"hydrostatic_head", ProbeType::hydrostatic_head}, {"wall_force", ProbeType::wall_force},
+      {"max_speed", ProbeType::max_speed}, {"volume", ProbeType::volume}, {"particle_volume", ProbeType::particle_volume},
+      {"hydrostatic_pressure_error", ProbeType::hydrostatic_pressure_error}, {"displacement", ProbeType::displacement},
+      {"solid_force", ProbeType::solid_force}, {"solid_com", ProbeType::solid_com},
+      {"solid_velocity", ProbeType::solid_velocity}, {"solid_angle", ProbeType::solid_angle}};
+  p.type = r.option<ProbeType>("type", std::nullopt, types, "what the probe measures (a metrics.csv column per probe)");
+  std::string default_name;
+  for (const auto& [name, type] : types)
+    if (type == p.type) default_name = name;
+  switch (p.type) {
+    case ProbeType::front: default_name = "front_x"; break;
+    case ProbeType::water_height: default_name = "height_left"; break;
+    case ProbeType::pressure: default_name = "pressure_right"; break;
+    case ProbeType::wall_force: default_name = "wall_force_x"; break;
+    case ProbeType::hydrostatic_pressure_error: default_name = "pressure_l2_error"; break;
+    default: break;
+  }
   p.name = r.text("name", default_name, "column name in metrics.csv (benchmarks.md names)");
   if (p.name.empty() || p.name == "t") throw InputError(fmt::format("scene key '{}.name': must be non-empty and not 't'", r.path()));
-  if (p.type == "front" || doc) {
+  if (p.type == ProbeType::front || doc) {
     p.axis = r.integer("axis", 0, 0, dim - 1, "front: axis along which the front travels (largest coordinate reported); displacement: the component reported (0 = x)");
     p.band = r.number("below", -1, -1, kInf, "front: only fluid particles lower than this height (m) count; -1 = one cell above the floor");
   }
-  if (p.type == "water_height" || doc) {
+  if (p.type == ProbeType::water_height || doc) {
     p.position = r.number("position", std::nullopt, -kInf, kInf, "water_height: first-axis coordinate of the gauge (m)");
-    p.band = r.number("half_width", -1, -1, kInf, "water_height: particles within this distance of the gauge count (m); -1 = one cell. The height is the top of the column connected to the floor (splashes above an empty cell do not count); in 3-D the gauge is a row of such columns, one per cell along the other horizontal axis (z when y is up), and the height their mean");
+    p.band = r.number("half_width", -1, -1, kInf, "water_height: particles within this distance of the gauge count (m); -1 = one cell. "
+                      "The height is the top of the column connected to the floor (3-D: the mean over a row of columns)");
     p.position_to = r.number("to", kNoRange, -kInf, kInf,
-                             "water_height: when given, the column is the mean of gauges every dx from position to this "
-                             "coordinate, each over half a cell either side (a still-water level that waves do not bias)");
+                             "water_height: when given, the mean of gauges every dx from position to this coordinate");
     if (!doc && p.position_to != kNoRange && p.position_to < p.position)
       throw InputError(fmt::format("scene key '{}.to': must not be below position ({} m)", r.path(), p.position));
   }
-  const bool of_solid =
-      p.type == "solid_force" || p.type == "solid_com" || p.type == "solid_velocity" || p.type == "solid_angle";
-  if ((p.type == "displacement" || p.type == "solid_force" || p.type == "solid_com" || p.type == "solid_velocity") && !doc)
+  const bool of_solid = p.type == ProbeType::solid_force || p.type == ProbeType::solid_com ||
+                        p.type == ProbeType::solid_velocity || p.type == ProbeType::solid_angle;
+  if ((p.type == ProbeType::displacement || (of_solid && p.type != ProbeType::solid_angle)) && !doc)
     p.axis = r.integer("axis", 0, 0, dim - 1, "");
   if (of_solid || doc)
     p.solid = r.text("solid", std::nullopt,
-                     "solid_force / solid_com / solid_velocity / solid_angle: name of the body (solids[].name). solid_force: "
-                     "force of the fluid on it along axis (interface multipliers, method.md §7; N/m in 2-D); solid_com: its "
-                     "centre of mass along axis (m); solid_velocity: its mass-weighted mean velocity along axis (m/s); "
-                     "solid_angle: its rotation since the start (rad, 2-D, counter-clockwise)");
-  if (p.type == "solid_angle" || doc)
+                     "solid_force / solid_com / solid_velocity / solid_angle: the body (solids[].name); force of the fluid "
+                     "on it (N/m in 2-D), centre of mass (m), mean velocity (m/s) along axis, or 2-D rotation (rad)");
+  if (p.type == ProbeType::solid_angle || doc)
     p.initial_angle = r.number("initial_angle", 0, -kInf, kInf,
-                               "solid_angle: the body's orientation at t = 0 (rad, counter-clockwise), added to its "
-                               "rotation since the start, so that the column is the absolute angle (e.g. 0.1745 for a "
-                               "block released tilted 10 degrees)");
-  if (p.type == "solid_force" || doc) {
+                               "solid_angle: the body's orientation at t = 0 (rad, counter-clockwise), added to its rotation");
+  if (p.type == ProbeType::solid_force || doc) {
     for (auto& shape : r.objects("region", "solid_force: count only the material of the body that starts inside these "
-                                           "shapes (e.g. the free part of a clamped gate: per-region force, method.md §7); "
-                                           "omitted: the whole body"))
+                                           "shapes (method.md §7); omitted: the whole body"))
       p.region.push_back(read_shape(shape, dim));
     if (doc) {
       Json example = {{"type", "box"}};
@@ -95,16 +99,11 @@ ProbeSpec read_probe(JsonReader& r, int dim, const std::vector<Real>& domain_min
       read_shape(shape, dim);
     }
   }
-  if (p.type == "pressure" || p.type == "hydrostatic_head" || p.type == "displacement" || doc)
+  if (p.type == ProbeType::pressure || p.type == ProbeType::hydrostatic_head || p.type == ProbeType::displacement || doc)
     p.point = r.vector("point", std::nullopt, dim,
-                       "pressure: sample point (m); the mean pressure of the 2^dim dual cells nearest to it (filters the Q1-P0 "
-                       "checkerboard mode). hydrostatic_head: the mean over those of the cells that hold water of p / (rho_f "
-                       "|g|) + the cell centre's height (m; NaN before the first solve): in still water, the level of the "
-                       "surface above the point from the weight of the water over it, whatever the scatter of the surface "
-                       "particles that water_height reads (README, coupling). displacement: the material point of a solid "
-                       "followed (any point of a body within dx of its particles, e.g. the middle of a beam's end face: it moves with its nearest particles' local "
-                       "affine motion x_p + F_p (X - X_p)); the column is its displacement along axis (m)");
-  if (p.type == "wall_force" || doc) {
+                       "pressure: mean of the 2^dim dual cells nearest the point (Pa); hydrostatic_head: p / (rho_f |g|) + "
+                       "height over those cells that hold water (m); displacement: a material point within dx of a solid (m)");
+  if (p.type == ProbeType::wall_force || doc) {
     std::vector<std::string> sides;
     for (int a = 0; a < dim; ++a) sides.insert(sides.end(), {kSideNames[a][0], kSideNames[a][1]});
     const std::string wall = r.choice("wall", std::nullopt, sides, "wall_force: which domain wall; the force of the fluid on it along its axis (N/m in 2-D, N in 3-D)");
@@ -112,9 +111,9 @@ ProbeSpec read_probe(JsonReader& r, int dim, const std::vector<Real>& domain_min
       for (int s = 0; s < 2; ++s)
         if (wall == kSideNames[a][s]) p.wall_axis = a, p.wall_side = s;
   }
-  if (p.type == "hydrostatic_pressure_error" || doc)
+  if (p.type == ProbeType::hydrostatic_pressure_error || doc)
     p.surface = r.number("surface", std::nullopt, -kInf, kInf, "hydrostatic_pressure_error: still-water level H (m); relative L2 error of p vs rho g (H - y) over the fluid cells");
-  if (!doc && (p.type == "pressure" || p.type == "hydrostatic_head" || p.type == "displacement"))
+  if (!doc && (p.type == ProbeType::pressure || p.type == ProbeType::hydrostatic_head || p.type == ProbeType::displacement))
     for (int a = 0; a < dim; ++a)
       if (p.point[a] < domain_min[a] || p.point[a] > domain_max[a])
         throw InputError(fmt::format("scene key '{}.point': outside the domain on axis {}", r.path(), a));
@@ -126,7 +125,8 @@ SolidSpec read_solid(JsonReader& r, int dim, int index) {
   SolidSpec s;
   const bool doc = r.documenting();
   s.name = r.text("name", "solid" + std::to_string(index), "name of the body (logs, outputs); default solid<index>");
-  s.model = r.choice("model", s.model, {"fixed_corotated", "neo_hookean"}, "hyperelastic model (method.md §1)");
+  s.model = r.option<SolidModel>("model", s.model, {{"fixed_corotated", SolidModel::fixed_corotated}, {"neo_hookean", SolidModel::neo_hookean}},
+                                 "hyperelastic model (method.md §1)");
   s.density = r.number("density", s.density, 0, kInf, "solid density rho_s (kg/m^3)", true);
   // Elastic constants: either (youngs_modulus, poisson_ratio) or (mu, lambda).
   const bool young = r.has("youngs_modulus") || r.has("poisson_ratio");
@@ -146,20 +146,16 @@ SolidSpec read_solid(JsonReader& r, int dim, int index) {
     s.lambda = r.number("lambda", std::nullopt, 0, kInf, "first Lame parameter lambda (Pa)");
   }
   s.ghost_stiffness = r.number("ghost_stiffness", s.ghost_stiffness, 0, kInf,
-                               "lambda_g (Pa), stiffness of the air-like ghost matrix carried by the solid (method.md §1, §9); "
-                               "default 1e5 Pa, about air's bulk modulus", true);
-  s.initial_pressure = r.choice("initial_pressure", s.initial_pressure, {"zero", "hydrostatic"},
-                                "the ghost matrix's starting pressure: zero = unstressed; hydrostatic = the still "
-                                "water's rho_f |g| (level - height) below the top of the fluid particles, for a body at "
-                                "rest in still water, wetted all round below the water line (a neutrally buoyant block, "
-                                "a floating block): it then starts in balance with the water instead of being squeezed "
-                                "through its soft ghost matrix in the first steps (measured: the neutral block's "
-                                "first-step interface force 175 instead of 71 N/m against its 196 N/m weight; README, "
-                                "coupling). Not for a body wetted on one side only, such as a gate holding water back");
+                               "lambda_g (Pa), stiffness of the air-like ghost matrix carried by the solid (method.md §1, §9)", true);
+  s.initial_pressure = r.option<InitialPressure>(
+      "initial_pressure", s.initial_pressure, {{"zero", InitialPressure::zero}, {"hydrostatic", InitialPressure::hydrostatic}},
+      "the ghost matrix's starting pressure: zero, or the still water's, for a body at rest in still water wetted all "
+      "round below the water line (docs/method.md#hydrostatic-start)");
   s.initial_velocity = r.vector("initial_velocity", std::vector<Real>(dim, 0), dim, "initial velocity of the body (m/s)");
   for (auto& shape : r.objects("shapes", "regions the body fills; a particle is seeded where any shape contains it"))
     s.shapes.push_back(read_shape(shape, dim));
-  for (auto& shape : r.objects("clamps", "regions held fixed (Dirichlet, zero velocity): every solid velocity node whose centre (a dual-cell centre) lies in a region or within dx/2 of it along an axis is fixed, so that the quadratic velocity field vanishes on the region (exactly, when its edges lie on cell faces); a region may reach outside the domain"))
+  for (auto& shape : r.objects("clamps", "regions held fixed: every velocity node whose dual-cell centre lies in a region or "
+                                         "within dx/2 of it along an axis has zero velocity"))
     s.clamps.push_back(read_shape(shape, dim));
   r.finish();
   if (!doc && s.shapes.empty())
@@ -209,26 +205,20 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
     JsonReader walls = root.object("walls", "boundary condition on each domain side (x-, x+, y-, y+, z-, z+)");
     for (int a = 0; a < 3; ++a)
       for (int s = 0; s < 2; ++s) {
-        if (a >= dim) {
-          scene.walls[a][s] = "none";
-          continue;
-        }
-        scene.walls[a][s] = walls.choice(kSideNames[a][s], "slip", {"slip", "none"},
-                                         "slip: free-slip wall (multipliers y, method.md §4); none: no wall, a particle crossing it stops the run");
+        if (a >= dim) continue;
+        scene.slip_walls[a][s] = walls.option<bool>(kSideNames[a][s], true, {{"slip", true}, {"none", false}},
+                                                    "slip: free-slip wall (method.md §4); none: no wall, a particle crossing it stops the run");
       }
     walls.finish();
   }
   {
     JsonReader fluid = root.object("fluid", "the incompressible fluid (absent: no fluid)");
     scene.fluid.density = fluid.number("density", 1000, 0, kInf, "fluid density rho_f (kg/m^3)", true);
-    scene.fluid.surface_quadrature = fluid.choice(
-        "surface_quadrature", "particles", {"particles", "centre"},
-        "quadrature of G^f and M^f in fluid cells next to empty ones: particles (method.md §4) or one point at the "
-        "cell centre weighted by the particles' volume");
-    scene.fluid.position_correction = fluid.number(
-        "position_correction", 0, 0, 1,
-        "relaxation of the particle position correction after each step (method.md §3 step 6): the fraction of each "
-        "cell's volume excess removed; 0 = off");
+    scene.fluid.surface_quadrature = fluid.option<SurfaceQuadrature>(
+        "surface_quadrature", SurfaceQuadrature::automatic,
+        {{"auto", SurfaceQuadrature::automatic}, {"centre", SurfaceQuadrature::centre}, {"particles", SurfaceQuadrature::particles}},
+        "quadrature of G^f and M^f in fluid cells next to empty ones: one point at the cell centre weighted by the "
+        "particles' volume, or the particles (method.md §4); auto: centre with solids, particles without");
     scene.fluid.initial_velocity = fluid.vector("initial_velocity", std::vector<Real>(dim, 0), dim, "initial velocity of the fluid (m/s)");
     for (auto& shape : fluid.objects("shapes", "regions filled with fluid; a particle is seeded where any shape contains it"))
       scene.fluid.shapes.push_back(read_shape(shape, dim));
@@ -255,67 +245,22 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
   }
   {
     JsonReader coupling = root.object("coupling", "fluid-solid interface (method.md §3 step 3, §4)");
-    scene.coupling.borrowed_fluid = coupling.choice(
-        "borrowed_fluid", scene.coupling.borrowed_fluid, {"volume", "mass", "none"},
-        "what the IQ points borrow from their fluid neighbours (within coupling.interface_reach) to join the fluid quadrature: "
-        "volume = a share of their volume, so G^f reaches into the interface cells, but no mass (the fluid keeps "
-        "its weight where it is); mass = mass and volume, the lenders keep the rest (the reference code's choice; "
-        "measured: the lent water is weighed twice next to full cells, buoyancy 3-4 % low); none = IQ points only "
-        "carry the interface constraint");
-    scene.coupling.interior_fluid_corners = coupling.boolean(
-        "interior_fluid_corners", scene.coupling.interior_fluid_corners,
-        "true: fluid velocity corners reached only by borrowed fluid (inside a solid) stay free unknowns, as "
-        "method.md (measured: fluid leaks into the solid); false: such corners move with the solid (their velocity "
-        "is the N2 interpolation of the solid's), so p_f and h act on the solid there (README, coupling); true "
-        "needs borrowed_fluid = mass (those corners need the borrowed mass)");
-    scene.coupling.solid_response = coupling.choice(
-        "solid_response", scene.coupling.solid_response, {"mass", "stiffness"},
-        "how the coupled pressure solve sees the solid after its Newton step: mass = the lumped nodal masses "
-        "(system (36) of method.md §5; the solid's elastic response to this step's pressure comes one step later); "
-        "stiffness = the Newton Hessian M + dt^2 K at v*, so the pressure meets a solid that resists deformation "
-        "within the step (a bordered, quasi-definite system: needs the LDL^T solve, solver.method = ldlt or auto in "
-        "2-D; measured: the stiff plate right at dt 1 ms, about 35 % more wall time; README, coupling)");
-    scene.coupling.interface = coupling.choice(
-        "interface", scene.coupling.interface, {"bilateral", "unilateral"},
-        "the interface constraint's kind: bilateral = the normal velocities match everywhere (method.md §1; the "
-        "fluid cannot leave a solid it touches, §9); unilateral = the rows through which the fluid pulls on a solid "
-        "(every h, and p_f where the cell's corners move with the solid) are inequalities, by active sets: a row in "
-        "tension is released (the fluid may separate there) and enforced again when the fluid compresses against "
-        "the solid; one pressure solve per round (measured: elastic gate tip peak -16 % instead of -25 %, 2.9 "
-        "solves a step; README, coupling)");
-    scene.coupling.max_contact_rounds = coupling.integer(
-        "max_contact_rounds", scene.coupling.max_contact_rounds, 1, 100,
-        "unilateral interface: active-set rounds (pressure solves) per step at most; the last round's solution is "
-        "used when the set still changes");
-    scene.coupling.solid_corner_fraction = coupling.number(
-        "solid_corner_fraction", scene.coupling.solid_corner_fraction, 0, 1,
-        "with interior_fluid_corners = false: a fluid velocity corner whose N1 support is at least this fraction "
-        "solid (the solid particles' current volume, N1-weighted, over dx^dim; 0.5 on a flat surface, 0.75 at 0.29 "
-        "dx inside it) moves with the solid even when fluid particles have strayed into its cells; otherwise a "
-        "stray particle frees its cell's corners and the fluid leaks on through the per-cell interface constraint. "
-        "Measured at 0.75: floating block drafts +1.5 / +3.0 / +5.6 % (heave, roll, light) instead of +13 / +19 / "
-        "+32 %; with the default reach and an unstressed ghost matrix the neutrally buoyant block at rest then drifts "
-        "at 1.8 mm/s after 1 s instead of 0.5, with interface_reach 0.6 and initial_pressure hydrostatic it rests "
-        "(0.54 mm/s): the floating and neutral-block scenes use all three (README, coupling). Accepted: 0 (off: only "
-        "corners touching no fluid particle's cell move "
-        "with the solid) or above 0.5 up to 1");
-    scene.coupling.interface_reach = coupling.number(
-        "interface_reach", scene.coupling.interface_reach, 0.5, 0.7,
-        "IQ points are the solid particles within this distance (in dx) of a fluid particle (method.md §3 step 3; "
-        "0.5 is the reference code's). Seeded lattices meet exactly 0.5 dx apart, so at 0.5 sub-micron motions break "
-        "those ties: rows of IQ points drop out and come back, and a clamped block's interface force flickers (std "
-        "18.5 N/m on 196 over 0.1-0.3 s; 0.39 N/m at 0.6). 0.6 keeps the first particle layer coupled and stays below the diagonal "
-        "neighbours at 0.71 dx; the floating and neutral-block scenes use it. Not the default: a water layer sliding "
-        "on a clamped plate then gives it 5.8 % of its momentum in 0.2 s (0.2 % at 0.5, where the sliding layer's ties "
-        "are mostly broken), through the borrowed volume where the pressure varies along the plate (README, "
-        "coupling). The elastic gate is the same at 0.6 (tip peak -16.1 %). Accepted: 0.5 to 0.7");
-    if (scene.coupling.solid_corner_fraction > 0 && scene.coupling.solid_corner_fraction <= 0.5 && !docs)
+    auto& c = scene.coupling;
+    c.interface = coupling.option<InterfaceConstraint>(
+        "interface", c.interface, {{"bilateral", InterfaceConstraint::bilateral}, {"unilateral", InterfaceConstraint::unilateral}},
+        "bilateral: normal velocities match everywhere; unilateral: the fluid may leave a solid (active sets, one "
+        "pressure solve per round; docs/method.md#unilateral-interface)");
+    c.solid_corner_fraction = coupling.number(
+        "solid_corner_fraction", c.solid_corner_fraction, 0, 1,
+        "a fluid velocity corner whose N1 support is at least this fraction solid moves with the solid; 0 = off, "
+        "else above 0.5 (docs/method.md#solid-corners)");
+    c.interface_reach = coupling.number(
+        "interface_reach", c.interface_reach, 0.5, 0.7,
+        "IQ points are the solid particles within this distance (in dx) of a fluid particle (docs/method.md#interface-reach)");
+    if (c.solid_corner_fraction > 0 && c.solid_corner_fraction <= 0.5 && !docs)
       throw InputError(fmt::format("scene key 'coupling.solid_corner_fraction' = {}: accepted 0 (off) or above 0.5 up to 1 "
                                    "(at 0.5 or below, corners on a solid's surface would move with it)",
-                                   scene.coupling.solid_corner_fraction));
-    if (scene.coupling.interior_fluid_corners && scene.coupling.borrowed_fluid != "mass" && !docs)
-      throw InputError("scene key 'coupling.interior_fluid_corners' = true: needs coupling.borrowed_fluid = \"mass\" "
-                       "(free fluid corners inside a solid have no mass otherwise)");
+                                   c.solid_corner_fraction));
     coupling.finish();
   }
   {
@@ -327,23 +272,47 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
                                          "a body in free fall has a gradient at the roundoff floor");
     o.max_iterations = newton.integer("max_iterations", o.max_iterations, 1, 10000, "Newton iterations per step; reaching it without convergence stops the run");
     o.cg_max_iterations = newton.integer("cg_max_iterations", o.cg_max_iterations, 1, 1000000, "inner (diagonally preconditioned) CG iterations per Newton iteration");
-    o.linear_solver = newton.choice("linear_solver", o.linear_solver, {"auto", "direct", "cg"},
-                                    "Newton direction: direct (sparse LDL^T, exact steps), cg (diagonal PCG, inexact Newton), "
-                                    "auto = direct in 2-D, cg in 3-D");
+    o.direction = newton.option<NewtonDirection>(
+        "linear_solver", o.direction, {{"auto", NewtonDirection::automatic}, {"direct", NewtonDirection::direct}, {"cg", NewtonDirection::cg}},
+        "Newton direction: direct (sparse LDL^T), cg (diagonal PCG on Hessian products), auto = direct in 2-D, cg in 3-D");
     o.project_hessian = newton.boolean("project_hessian", o.project_hessian, "per-particle PSD projection of dP/dF (projected Newton); false: plain Newton with gradient fallback");
     newton.finish();
   }
   {
     JsonReader solver = root.object("solver", "linear solver of the pressure system");
     auto& o = scene.solver;
-    o.method = solver.choice("method", o.method, {"auto", "pcg", "cholmod", "ldlt"},
-                             "auto: ldlt in 2-D up to direct_max_unknowns unknowns, pcg otherwise (measured fastest, README); pcg: conjugate gradients; cholmod: SuiteSparse CHOLMOD simplicial LL^T (direct); ldlt: CHOLMOD simplicial LDL^T (direct; also quasi-definite systems; the active set's rounds modify its factor's changed rows instead of factorising)");
-    o.preconditioner = solver.choice("preconditioner", o.preconditioner, {"ichol", "jacobi"}, "PCG preconditioner: incomplete Cholesky (threshold fill, AMD ordering) or Jacobi");
+    o.method = solver.option<LinearSolverMethod>(
+        "method", o.method,
+        {{"auto", LinearSolverMethod::automatic}, {"pcg", LinearSolverMethod::pcg}, {"cholmod", LinearSolverMethod::cholmod}, {"ldlt", LinearSolverMethod::ldlt}},
+        "auto: ldlt in 2-D up to direct_max_unknowns, pcg otherwise; pcg: conjugate gradients; cholmod: CHOLMOD LL^T; "
+        "ldlt: CHOLMOD LDL^T (also quasi-definite systems)");
+    o.preconditioner = solver.option<Preconditioner>("preconditioner", o.preconditioner, {{"ichol", Preconditioner::ichol}, {"jacobi", Preconditioner::jacobi}},
+                                                     "PCG preconditioner: incomplete Cholesky (threshold fill, AMD ordering) or Jacobi");
     o.tolerance = solver.number("tolerance", o.tolerance, 0, 1, "PCG relative residual tolerance", true);
     o.max_iterations = solver.integer("max_iterations", o.max_iterations, 1, 1000000, "PCG iteration cap; reaching it stops the run");
     o.direct_max_unknowns = solver.integer("direct_max_unknowns", o.direct_max_unknowns, 0, std::numeric_limits<int>::max(), "auto: largest 2-D system solved directly");
     o.warm_start = solver.boolean("warm_start", o.warm_start, "PCG starts from the previous step's pressures");
     solver.finish();
+  }
+  {
+    JsonReader experimental = root.object("experimental", "options kept for studies, used by no validated scene (docs/method.md#experimental-options)");
+    auto& e = scene.experimental;
+    e.position_correction = experimental.number(
+        "position_correction", e.position_correction, 0, 1,
+        "relaxation of the fluid particle position correction after each step (method.md §3 step 6); 0 = off");
+    e.solid_response = experimental.option<SolidResponse>(
+        "solid_response", e.solid_response, {{"mass", SolidResponse::mass}, {"stiffness", SolidResponse::stiffness}},
+        "the solid in the coupled solve: its lumped mass (method.md §5) or the Newton Hessian M + dt^2 K at v* "
+        "(needs solver.method = ldlt, or auto in 2-D)");
+    e.max_contact_rounds = experimental.integer(
+        "max_contact_rounds", e.max_contact_rounds, 1, 100,
+        "unilateral interface: pressure solves per step at most; the last one's solution is kept");
+    experimental.finish();
+    const bool ldlt = scene.solver.method == LinearSolverMethod::ldlt ||
+                      (scene.solver.method == LinearSolverMethod::automatic && dim == 2);
+    if (!docs && e.solid_response == SolidResponse::stiffness && !ldlt)
+      throw InputError("scene key 'experimental.solid_response' = \"stiffness\": needs the LDL^T pressure solve; accepted "
+                       "with solver.method = \"ldlt\", or \"auto\" in 2-D");
   }
   for (auto& probe : root.objects("probes", "metrics written to metrics.csv every step"))
     scene.probes.push_back(read_probe(probe, dim, scene.domain_min, scene.domain_max));
@@ -369,11 +338,11 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
       if (!known)
         throw InputError(fmt::format("scene key 'probes[{}].solid' = \"{}\": no solid of that name; accepted: {}", i,
                                      scene.probes[i].solid, names.empty() ? "(the scene has no solids)" : names));
-      if (scene.probes[i].type == "solid_angle" && dim != 2)
+      if (scene.probes[i].type == ProbeType::solid_angle && dim != 2)
         throw InputError(fmt::format("scene key 'probes[{}].type' = \"solid_angle\": 2-D only", i));
     }
     for (std::size_t i = 0; i < scene.probes.size(); ++i)
-      if (scene.probes[i].type == "hydrostatic_head" &&
+      if (scene.probes[i].type == ProbeType::hydrostatic_head &&
           (scene.fluid.shapes.empty() || std::all_of(scene.gravity.begin(), scene.gravity.end(), [](Real g) { return g == 0; })))
         throw InputError(fmt::format("scene key 'probes[{}].type' = \"hydrostatic_head\": needs fluid (fluid.shapes) and gravity", i));
     if (scene.fluid.shapes.empty() && scene.solids.empty())
@@ -389,12 +358,12 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
 }  // namespace
 
 bool ShapeSpec::contains(const Real* x, int dim) const {
-  if (type == "box") {
+  if (type == ShapeType::box) {
     for (int a = 0; a < dim; ++a)
       if (x[a] < min[a] || x[a] > max[a]) return false;
     return true;
   }
-  if (type == "sphere") {
+  if (type == ShapeType::sphere) {
     Real r2 = 0;
     for (int a = 0; a < dim; ++a) r2 += (x[a] - centre[a]) * (x[a] - centre[a]);
     return r2 <= radius * radius;

@@ -1,4 +1,4 @@
-#include "simulation/simulation_impl.h"
+#include "simulation/time_step.h"
 
 namespace iqmpm {
 template class Simulation<2>;

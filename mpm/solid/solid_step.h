@@ -1,5 +1,6 @@
 // The implicit solid step of method.md §3 step 2: v_s^n -> v_s* by projected Newton on the
-// incremental potential (incremental_potential.h, projected_newton.h).
+// incremental potential (incremental_potential.h, projected_newton.h). The simulation's
+// Newton stage (simulation/solid_stage.h) calls it.
 //
 // In the time step (the caller wires):
 //   1. solid P2G (transfer/apic.h: solid_particles_to_grid) -> SolidNodes::mass, and
@@ -18,17 +19,41 @@
 
 namespace iqmpm {
 
+// The step's linearisation at v*, for a coupled solve that sees the solid's stiffness: the
+// projected Hessian M + dt^2 K and the dense node of each of its dim-row groups.
+struct SolidLinearisation {
+  Eigen::SparseMatrix<Real, Eigen::RowMajor, int> hessian;
+  std::vector<int> nodes;
+};
+
 // Minimises the incremental potential starting from v^n and writes v* dense over
 // Grid::nodes() (clamped nodes: their prescribed velocity; inactive nodes: v^n unchanged).
+// Particle p uses materials[material_of_particle[p]] (empty: materials[0]). With
+// `linearisation`, also the Hessian at v*.
+template <int dim, class Material>
+NewtonResult solid_step(const Grid<dim>& grid, const Particles<dim>& particles, std::vector<Material> materials,
+                        std::vector<int> material_of_particle, const SolidNodes<dim>& nodes, Real dt,
+                        const ProjectedNewtonOptions& options, std::vector<Vec<dim>>& node_velocity,
+                        SolidLinearisation* linearisation = nullptr) {
+  const SolidIncrementalPotential<dim, Material> potential(grid, particles, std::move(materials),
+                                                           std::move(material_of_particle), nodes, dt);
+  auto v = potential.initial_velocity();
+  const NewtonResult result = minimize_projected_newton(potential, v, options);
+  potential.scatter(v, node_velocity);
+  if (linearisation && result.converged) {
+    linearisation->hessian = potential.hessian(v, true);
+    linearisation->nodes.clear();
+    for (int r = 0; r * dim < potential.unknowns(); ++r) linearisation->nodes.push_back(potential.dense_node(r));
+  }
+  return result;
+}
+
+// One material for every particle.
 template <int dim, class Material>
 NewtonResult solid_step(const Grid<dim>& grid, const Particles<dim>& particles, const Material& material,
                         const SolidNodes<dim>& nodes, Real dt, const ProjectedNewtonOptions& options,
                         std::vector<Vec<dim>>& node_velocity) {
-  const SolidIncrementalPotential<dim, Material> potential(grid, particles, material, nodes, dt);
-  auto v = potential.initial_velocity();
-  const NewtonResult result = minimize_projected_newton(potential, v, options);
-  potential.scatter(v, node_velocity);
-  return result;
+  return solid_step(grid, particles, std::vector<Material>{material}, {}, nodes, dt, options, node_velocity);
 }
 
 }  // namespace iqmpm

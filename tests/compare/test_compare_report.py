@@ -22,9 +22,15 @@ def test_report_single_level(tmp_path, capsys):
     out = tmp_path / "report"
     rc = main(["report", "--benchmark", "hydrostatic_2d", "--ours", str(ours), "--foam",
                str(foam), "--out", str(out)])
-    assert rc == 0
+    # benchmarks/hydrostatic/expected.json: the wall force within 2 % of rho g H^2/2 fails
+    assert rc == 1
+    assert "checks (expected.json): 3 pass, 1 fail" in capsys.readouterr().out
     bdir = out / "hydrostatic_2d"
     text = (bdir / "report.md").read_text()
+    assert "## Checks (expected.json)" in text
+    check = _row(text, "`wall_force_final`", "1226.25 N/m ± 2 %")
+    assert "**FAIL**" in check and "+10.00 %" in check and "issue 2" in check
+    assert "| pass |" in _row(text, "`volume_drift`", "0 ± 0.01")
     for png in ("series_wall_force_x.png", "series_max_speed.png", "field_pressure_line_t2.png",
                 "cost.png"):
         assert (bdir / png).is_file() and (bdir / png).stat().st_size > 1000
@@ -33,7 +39,7 @@ def test_report_single_level(tmp_path, capsys):
     row = _row(text, "`wall_force_x`", "rho g H^2/2")
     assert "| 10.00 |" in row and "1349 N/m" in row and "1226 N/m" in row
     assert "| 10.00 |" in _row(text, "`wall_force_x`", "| interFoam |")
-    assert "| 10.00 |" in _row(text, "`wall_force_final`")
+    assert "| 10.00 |" in _row(text, "`wall_force_final`", "wall force at the end")
     # pressure field exact against rho g (H - y) and against the interFoam cells
     assert "| 0.00 |" in _row(text, "pressure_line x=0.5 m", "rho g (H - y)")
     assert "| 0.00 |" in _row(text, "pressure_line x=0.5 m", "interFoam")
@@ -59,7 +65,7 @@ def test_report_convergence_and_cost(tmp_path):
         args += ["--ours", str(o)]
     for f in foam:
         args += ["--foam", str(f)]
-    assert main(args) == 0
+    assert main(args) == 1  # level 1's force is 10 % off: expected.json's 2 % fails
     text = (out / "hydrostatic_2d" / "report.md").read_text()
     row = _row(text, "| IQ-MPM |", "`wall_force_x`", "rho g H^2/2")
     assert "| 2 |" in row  # observed order 2
@@ -103,10 +109,15 @@ def test_dam_break_front_normalised_against_koshizuka_oka(tmp_path):
                            "pressure_right": np.zeros_like(t), "volume": np.ones_like(t)})
     write_summary(run, dx=0.004)
     out = tmp_path / "report"
+    # 5 % ahead of the experiment is about 6 % behind interFoam's level 3 (11 % ahead):
+    # expected.json's 3 % criterion against the shipped interFoam front fails
     assert main(["report", "--benchmark", "dam_break", "--ours", str(run), "--out", str(out),
-                 "--data-dir", str(data)]) == 0
+                 "--data-dir", str(data)]) == 1
     text = (out / "dam_break" / "report.md").read_text()
-    row = _row(text, "`front_x`", "Koshizuka & Oka")
+    check = _row(text, "rel. L2 vs interFoam L3", "rel. L2 <= 3 %")
+    assert "**FAIL**" in check and "shipped reference benchmarks/dam_break/references" in check
+    assert "| info |" in _row(text, "rel. L2 vs Koshizuka & Oka", "5.00 %")
+    row = _row(text, "`front_x`", "| IQ-MPM |", "Koshizuka & Oka")
     # the reference's points with Z <= 4 end at T = 3.096 (Z = 3.624)
     assert "[0, 2.323]" in row  # the issue's window T in [0, 2.5]: K&O points up to 2.323
     cells = [c.strip() for c in row.split("|")]

@@ -135,7 +135,7 @@ def test_quick_suite_leaves_long_benchmarks_to_named_runs(tmp_path, capsys, monk
         json.dumps({"dx": 0.04}))
     _validate(repo, tmp_path)
     out = capsys.readouterr().out
-    assert "not in the quick suite (run them with --benchmark NAME): floating_block_3d" in out
+    assert "not in the quick suite (run them with --benchmark NAME or --full): floating_block_3d" in out
     assert "floating_block_3d | IQ-MPM level 1" not in out
     _validate(repo, tmp_path, "--benchmark", "floating_block_3d")
     assert "floating_block_3d | IQ-MPM level 1 | started" in capsys.readouterr().out
@@ -155,3 +155,108 @@ def test_long_benchmarks_keep_their_own_minimum_timeout(tmp_path, capsys, monkey
     out = capsys.readouterr().out
     assert "floating_block_3d_fine | IQ-MPM level 1 | done" in out
     assert "timed out" not in out
+
+
+def _expect(repo: Path, margin: float) -> None:
+    (repo / "benchmarks" / "hydrostatic" / "expected.json").write_text(json.dumps({
+        "hydrostatic_2d": [
+            {"metric": "wall_force_final", "value": 1226.25, "margin": {"relative": margin},
+             "source": "analytic rho g H^2/2"},
+            {"metric": "status", "value": "ok", "source": "runs to its end"}]}))
+
+
+def test_validate_checks_expected_results_and_fails_on_a_failed_check(tmp_path, capsys,
+                                                                       monkeypatch):
+    # The fake solver's level-1 wall force is 10 % high: a 2 % margin fails, 15 % passes.
+    monkeypatch.setenv("FAKE_FOAM_CALLS", str(tmp_path / "calls.txt"))
+    repo = _repo(tmp_path)
+    _expect(repo, 0.02)
+    page = tmp_path / "docs" / "validation.md"
+    rc = _validate(repo, tmp_path, "--benchmark", "hydrostatic_2d", "--page", str(page))
+    out = capsys.readouterr().out
+    assert rc == 1
+    assert "validate | summary | 1 benchmark(s) in" in out and "1 pass, 1 fail" in out
+    assert "FAILED check: hydrostatic_2d wall_force_final: 1349 N/m (+10.00 %)" in out
+    assert f"report: {tmp_path / 'report' / 'index.md'}" in out
+    assert out.rstrip().splitlines()[-1].endswith("FAILED: hydrostatic_2d wall_force_final")
+    text = (tmp_path / "report" / "hydrostatic_2d" / "report.md").read_text()
+    assert "## Checks (expected.json)" in text and "**FAIL**" in text
+    index = (tmp_path / "report" / "index.md").read_text()
+    assert "### Failed checks" in index and "1 pass, 1 **FAIL**" in index
+    for p in (tmp_path / "report" / "validation.md", page):
+        body = p.read_text()
+        assert "| `wall_force_final` | value | 1349 N/m | 1226.25 N/m ± 2 % |" in body
+        assert "**FAIL**" in body and str(repo) not in body
+    _expect(repo, 0.15)
+    assert _validate(repo, tmp_path, "--benchmark", "hydrostatic_2d") == 0
+    out = capsys.readouterr().out
+    assert "checks (expected.json): 2 pass" in out and "no check failed" in out
+
+
+def test_malformed_expected_json_stops_before_any_run(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("FAKE_FOAM_CALLS", str(tmp_path / "calls.txt"))
+    repo = _repo(tmp_path)
+    (repo / "benchmarks" / "hydrostatic" / "expected.json").write_text(json.dumps({
+        "hydrostatic_2d": [{"metric": "wall_force_final", "value": 1.0, "source": "x"}]}))
+    assert _validate(repo, tmp_path, "--benchmark", "hydrostatic_2d") == 2
+    assert "missing 'margin'" in capsys.readouterr().err
+    assert not (tmp_path / "calls.txt").exists() and not (tmp_path / "runs").exists()
+
+
+def test_quick_suite_leaves_slow_openfoam_references_to_the_full_suite(tmp_path, capsys,
+                                                                       monkeypatch):
+    # floating_block's interFoam (7 min at level 1) is registered foam_quick=False.
+    calls = tmp_path / "calls.txt"
+    monkeypatch.setenv("FAKE_FOAM_CALLS", str(calls))
+    repo = _repo(tmp_path)
+    (repo / "benchmarks" / "broken" / "broken.json").unlink()
+    (repo / "benchmarks" / "floating_block").mkdir()
+    (repo / "benchmarks" / "floating_block" / "floating_block.json").write_text(
+        json.dumps({"dx": 0.04}))
+    (repo / "foam_cases" / "floating_block").mkdir()
+    (repo / "foam_cases" / "floating_block" / "controlDict").write_text("endTime 5;\n")
+    _validate(repo, tmp_path)
+    out = capsys.readouterr().out
+    assert "floating_block | OpenFOAM level 1 | L1 not run in the quick suite" in out
+    assert "floating_block | IQ-MPM level 1 | done" in out
+    assert "floating_block" not in calls.read_text()  # hydrostatic's interFoam did run
+    assert "not run in the quick suite" in (tmp_path / "report" / "index.md").read_text()
+    _validate(repo, tmp_path, "--full")
+    assert "floating_block | OpenFOAM level 1 | done" in capsys.readouterr().out
+    assert "floating_block --level 1" in calls.read_text()
+    _validate(repo, tmp_path)  # a cached run with unchanged inputs is used
+    assert "floating_block | OpenFOAM level 1 | reused cache" in capsys.readouterr().out
+
+
+def test_jobs_start_longest_first_and_a_later_level_after_its_first():
+    from compare.validate import Job, submit_longest_first
+
+    started: list[str] = []
+
+    def job(name, estimate, after=None):
+        return Job(estimate, len(started), lambda: started.append(name) or name,
+                   lambda f: None, after)
+
+    a1 = job("a L1", 5.0)
+    jobs = [a1, job("a L2", 40.0, after=a1), job("b L1", 20.0), job("c L1", 1.0)]
+    for i, j in enumerate(jobs):
+        j.order = i
+    submit_longest_first(jobs)
+    assert started == ["b L1", "a L1", "a L2", "c L1"]
+
+
+def test_progress_counts_finished_jobs(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("FAKE_FOAM_CALLS", str(tmp_path / "calls.txt"))
+    repo = _repo(tmp_path)
+    _validate(repo, tmp_path, "--levels", "1,2")
+    out = capsys.readouterr().out
+    # hydrostatic_2d: IQ-MPM and OpenFOAM at 2 levels; broken: IQ-MPM at 2 levels
+    assert "(6/6 jobs)" in out and "(1/6 jobs)" in out
+    # a job's CPU time beside its wall time (the children are Python scripts: > 10 ms)
+    import re
+
+    cpu = [float(c) for c in re.findall(r"done in [0-9.]+ s, cpu ([0-9.]+) s", out)]
+    assert len(cpu) == 4 and all(c > 0 for c in cpu)
+    record = json.loads((tmp_path / "runs" / "hydrostatic_2d" / "iqmpm" / "level1" /
+                         "compare_run.json").read_text())
+    assert 0 < record["cpu_s"] < record["elapsed_s"] + 5

@@ -8,7 +8,7 @@
 #include <array>
 
 #include "core/errors.h"
-#include "simulation/runner.h"
+#include "run/runner.h"
 #include "test_helpers.h"
 
 namespace iqmpm {
@@ -49,7 +49,7 @@ TYPED_TEST(HydrostaticTest, AlignedColumnIsExactDiscreteEquilibrium) {
 }
 
 // The hydrostatic_head probe (a still-water level from the weight of the water over a
-// point, the check of the floor's balance around floating bodies; README, coupling) reads
+// point, the check of the floor's balance around floating bodies; docs/method.md#fluid-mass) reads
 // the surface, 0.5 m, wherever its point sits: mid-column, between nodes, near the floor,
 // and near a wall in the top cell layer; without gravity it is a scene error.
 TYPED_TEST(HydrostaticTest, HydrostaticHeadReadsTheSurfaceWhereverItSamples) {

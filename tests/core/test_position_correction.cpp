@@ -3,7 +3,7 @@
 // the volume (Simulation::fluid_particle_volume, what the correction evens out) drifts by
 // -22 % without it; with relaxation 0.5 the drift measured -5.5 %. Margins: the
 // uncorrected run must show the problem (< -15 %), the corrected one stay within 10 %.
-#include "simulation/runner.h"
+#include "run/runner.h"
 #include "test_helpers.h"
 
 namespace iqmpm {

@@ -142,7 +142,7 @@ TEST(BorderedPressureSystemTest, EqualsThePressureOnlySystemWithTheInverseOfH) {
     const SparseMatrix& K = system.matrix();
     EXPECT_LT((K - SparseMatrix(K.transpose())).norm(), 1e-14 * K.norm());
     Eigen::VectorXd x = Eigen::VectorXd::Zero(system.size());
-    const auto stats = make_linear_solver(LinearSolverOptions{"ldlt"}, system.size(), 2)->solve(K, system.rhs(v_star), x);
+    const auto stats = make_linear_solver(LinearSolverOptions{LinearSolverMethod::ldlt}, system.size(), 2)->solve(K, system.rhs(v_star), x);
     EXPECT_TRUE(stats.converged);
     EXPECT_LT(stats.relative_residual, 1e-12);
     return std::make_pair(Eigen::VectorXd(x.head(rows)), system.corrected_velocity(v_star, x));
@@ -193,7 +193,7 @@ TEST(RowModifiedLdltTest, EqualsAFreshFactorisationOverActiveSetRounds) {
       system.set_mass_block(columns, Eigen::MatrixXd(R * R.transpose() + 2 * Eigen::MatrixXd::Identity(nb, nb)).sparseView());
     }
     system.assemble(0.01);
-    auto solver = make_linear_solver(LinearSolverOptions{"ldlt"}, system.size(), 2);
+    auto solver = make_linear_solver(LinearSolverOptions{LinearSolverMethod::ldlt}, system.size(), 2);
     std::vector<std::uint8_t> released(rows, 0);
     const std::vector<std::vector<int>> rounds = {{2, 9, 17, 30}, {9, 31, 44}, {2, 5, 6, 7, 31}, {}};
     for (std::size_t round = 0; round < rounds.size(); ++round) {
@@ -211,7 +211,7 @@ TEST(RowModifiedLdltTest, EqualsAFreshFactorisationOverActiveSetRounds) {
       const Eigen::VectorXd b = system.rhs(v_star);
       Eigen::VectorXd x = Eigen::VectorXd::Zero(system.size()), fresh = x;
       const auto stats = solver->solve(K, b, x);
-      const auto fresh_stats = make_linear_solver(LinearSolverOptions{"ldlt"}, system.size(), 2)->solve(K, b, fresh);
+      const auto fresh_stats = make_linear_solver(LinearSolverOptions{LinearSolverMethod::ldlt}, system.size(), 2)->solve(K, b, fresh);
       ASSERT_TRUE(stats.converged && fresh_stats.converged);
       // Round 0 factorises; the later ones modify exactly the changed rows.
       EXPECT_EQ(stats.modified_rows, round == 0 ? 0 : int(newly_released.size() + restored.size()));

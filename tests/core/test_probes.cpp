@@ -1,7 +1,8 @@
 // Probes measure what benchmarks.md defines: at t = 0 the dam-break front is the column
 // width a and the water height at the left wall is 2a (the half particle spacing beyond
 // the outermost particles is counted), and a drop above the column does not raise it.
-#include "simulation/runner.h"
+#include "run/runner.h"
+#include "diagnostics/measurements.h"
 #include "simulation/simulation.h"
 #include "test_helpers.h"
 
@@ -74,8 +75,8 @@ TEST(ProbeTest, WaterVolumeIsTheRegionTheWaterFills) {
   const std::string path = std::string(IQMPM_BENCHMARKS_DIR) + "/dam_break/dam_break.json";
   Simulation<2> sim(load_scene(path, {"dx=0.0365"}));
   const double area = 0.146 * 0.292, quarter = 0.0365 * 0.0365 / 4;
-  EXPECT_NEAR(sim.fluid_volume(), area, 1e-12);
-  EXPECT_NEAR(sim.fluid_particle_volume(), area, 1e-12);
+  EXPECT_NEAR(fluid_volume(sim), area, 1e-12);
+  EXPECT_NEAR(fluid_particle_volume(sim), area, 1e-12);
   auto& x = sim.fluid().position;
   const auto in_cell = [&](double cx, double cy) {
     for (std::size_t p = 0; p < x.size(); ++p)
@@ -84,12 +85,12 @@ TEST(ProbeTest, WaterVolumeIsTheRegionTheWaterFills) {
     return std::size_t(0);
   };
   x[in_cell(1, 3)][1] += 0.0365;  // interior cell (1, 3) -> (1, 4)
-  EXPECT_NEAR(sim.fluid_volume(), area, 1e-12);
-  EXPECT_NEAR(sim.fluid_particle_volume(), area - quarter, 1e-12);
+  EXPECT_NEAR(fluid_volume(sim), area, 1e-12);
+  EXPECT_NEAR(fluid_particle_volume(sim), area - quarter, 1e-12);
   x[in_cell(3, 7)][1] += 5 * 0.0365;  // off the top surface cell (3, 7) into the air
-  EXPECT_NEAR(sim.fluid_volume(), area, 1e-12) << "a detached drop keeps its volume";
+  EXPECT_NEAR(fluid_volume(sim), area, 1e-12) << "a detached drop keeps its volume";
   x[in_cell(3, 12)][1] = 10;  // the drop leaves the domain: not counted
-  EXPECT_NEAR(sim.fluid_volume(), area - quarter, 1e-12);
+  EXPECT_NEAR(fluid_volume(sim), area - quarter, 1e-12);
 }
 
 }  // namespace

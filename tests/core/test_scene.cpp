@@ -24,8 +24,8 @@ TEST(SceneTest, ValidSceneFillsDefaults) {
   EXPECT_EQ(scene.dim, 2);
   EXPECT_DOUBLE_EQ(scene.cfl, 0.5);
   EXPECT_DOUBLE_EQ(scene.fluid.density, 1000);
-  EXPECT_EQ(scene.walls[0][0], "slip");
-  EXPECT_EQ(scene.solver.method, "auto");
+  EXPECT_TRUE(scene.slip_walls[0][0]);
+  EXPECT_EQ(scene.solver.method, LinearSolverMethod::automatic);
 }
 
 TEST(SceneTest, UnknownKeyIsNamedWithAcceptedKeys) {
@@ -83,7 +83,7 @@ TEST(SceneTest, OverridesReachNestedKeysAndArrays) {
   apply_override(doc, "fluid.shapes.0.max=[0.4,0.3]");
   const SceneSpec scene = read_scene(doc);
   EXPECT_DOUBLE_EQ(scene.dx, 0.05);
-  EXPECT_EQ(scene.solver.method, "pcg");
+  EXPECT_EQ(scene.solver.method, LinearSolverMethod::pcg);
   EXPECT_DOUBLE_EQ(scene.fluid.shapes[0].max[1], 0.3);
   EXPECT_THROW(apply_override(doc, "fluid.shapes.3.max=[1,1]"), InputError);
   EXPECT_THROW(apply_override(doc, "novalue"), InputError);
@@ -120,7 +120,7 @@ TEST(SceneSolidTest, SolidOnlySceneIsValidWithDefaults) {
   const SceneSpec scene = read_scene(solid_scene());
   ASSERT_EQ(scene.solids.size(), 1u);
   EXPECT_EQ(scene.solids[0].name, "solid0");
-  EXPECT_EQ(scene.solids[0].model, "fixed_corotated");
+  EXPECT_EQ(scene.solids[0].model, SolidModel::fixed_corotated);
   EXPECT_NEAR(scene.solids[0].mu, 1e6 / 2.6, 1e-6);
   EXPECT_NEAR(scene.solids[0].lambda, 1e6 * 0.3 / (1.3 * 0.4), 1e-6);
   EXPECT_DOUBLE_EQ(scene.solids[0].ghost_stiffness, 1e5);

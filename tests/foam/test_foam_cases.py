@@ -152,3 +152,25 @@ def test_run_past_its_stability_limit_is_reported_failed(tmp_path: Path) -> None
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"].startswith("failed: unstable run: max Courant number")
     assert not (out / "metrics.csv").exists()
+
+
+def test_driver_reads_reference_data_from_the_repository(monkeypatch) -> None:
+    # A clone needs nothing beside it: the Koshizuka & Oka front behind the summary's
+    # front_l2_vs_koshizuka_oka is read from <repo>/data.
+    import numpy as np
+
+    monkeypatch.syspath_prepend(str(REPO / "foam_cases"))
+    monkeypatch.delenv("IQMPM_DATA_DIR", raising=False)
+    from driver import cases
+
+    path = cases._data_file(cases.KO_DATA)
+    assert path == REPO / "data" / "koshizuka_oka_1996_surge_front_pysph.csv"
+    data = np.loadtxt(path, delimiter=",", comments="#", skiprows=4)
+    T, Z = data[1:, 0], data[1:, 1]  # T > 0: the driver prepends the initial (0, 1)
+    t = T / math.sqrt(2 * 9.81 / 0.146)
+    exact = cases.koshizuka_oka_error(t, Z * 0.146)
+    assert exact["front_l2_vs_koshizuka_oka"] < 1e-12 and exact["front_l2_points"] >= 6
+    ahead = cases.koshizuka_oka_error(t, 1.1 * Z * 0.146)["front_l2_vs_koshizuka_oka"]
+    assert 0.08 < ahead < 0.1  # 10 % ahead at every point but the initial one
+    monkeypatch.setenv("IQMPM_DATA_DIR", str(REPO / "nowhere"))
+    assert cases._data_file(cases.KO_DATA) == path  # falls back to the repository's copy

@@ -4,7 +4,9 @@
 #include <cmath>
 
 #include "core/errors.h"
-#include "simulation/runner.h"
+#include "run/runner.h"
+#include "diagnostics/measurements.h"
+#include "run/time_step_policy.h"
 #include "simulation/simulation.h"
 #include "../core/test_helpers.h"
 
@@ -146,13 +148,15 @@ TEST(SolidSimulationTest, ClampedRegionDoesNotMove) {
 // fluid benchmarks' CFL time step: no NaN, no inverted particle, nothing through the floor,
 // and it comes to rest on the floor (about a cell above it: grid contact).
 TEST(SolidSimulationTest, DroppedBlockLandsAndRests) {
-  Simulation<2> sim(load_scene(scene_path("stability/block_drop.json"), {"end_time=1.0"}));
+  const SceneSpec scene = load_scene(scene_path("stability/block_drop.json"), {"end_time=1.0"});
+  Simulation<2> sim(scene);
+  const TimeStepPolicy policy(scene);
   double t = 0, min_J = 1;
   // dt from the CFL rule only (no clamp to the end time): a sudden dt change on a body at
-  // rest starts a small transient (the elastic/ghost-matrix splitting, README), which is
+  // rest starts a small transient (the elastic/ghost-matrix splitting), which is
   // not what this test measures.
   while (t < 1.0) {
-    const double dt = sim.stable_dt();
+    const double dt = policy.stable_dt(sim);
     sim.step(dt);
     t += dt;
     min_J = std::min(min_J, double(sim.last_step().solid_min_J));
@@ -195,14 +199,14 @@ namespace {
 // constraint row (incompressibility, walls, the interface's normal-velocity jump) to the
 // direct solver's precision. This checks the algebra of the coupling; the physics of the
 // benchmark is still open (issue #4 notes: leakage through the per-cell constraint).
-// With coupling.solid_response = stiffness the solid's velocities are unknowns of a
+// With experimental.solid_response = stiffness the solid's velocities are unknowns of a
 // bordered system (pressure_system.h); the same constraints must hold.
 class CoupledSystemTest : public ::testing::TestWithParam<const char*> {};
 INSTANTIATE_TEST_SUITE_P(SolidResponse, CoupledSystemTest, ::testing::Values("mass", "stiffness"));
 
 TEST_P(CoupledSystemTest, ConstraintsHoldAfterTheSolve) {
   Simulation<2> sim(load_scene(std::string(IQMPM_BENCHMARKS_DIR) + "/submerged_block/submerged_block.json",
-                               {std::string("coupling.solid_response=\"") + GetParam() + "\""}));
+                               {std::string("experimental.solid_response=\"") + GetParam() + "\""}));
   sim.step(0.005);
   ASSERT_EQ(sim.pressure_system().has_mass_block(), std::string(GetParam()) == "stiffness");
   ASSERT_GT(sim.interface_points(), 0);
@@ -219,8 +223,8 @@ TEST_P(CoupledSystemTest, ConstraintsHoldAfterTheSolve) {
   EXPECT_LT(dv.segment(h->offset, h->size).norm(), 1e-8 * d_star.norm());
   EXPECT_LT(dv.segment(pf->offset, pf->size).norm(), 1e-8 * d_star.norm());
   // The fluid pushes the block up (buoyancy): the sign and rough size of the force.
-  EXPECT_GT(sim.interface_force(0)[1], 0.5 * 196.2);
-  EXPECT_NEAR(sim.interface_force(0)[0], 0, 1e-6);  // symmetric set-up
+  EXPECT_GT(body_interface_force(sim, 0)[1], 0.5 * 196.2);
+  EXPECT_NEAR(body_interface_force(sim, 0)[0], 0, 1e-6);  // symmetric set-up
 }
 
 }  // namespace
@@ -240,11 +244,13 @@ TEST(SolidSimulation3dTest, DroppedCubeLandsAndRests) {
       {"gravity", {0.0, -9.81, 0.0}},
       {"solids", Json::array({{{"model", "neo_hookean"}, {"youngs_modulus", 1e6}, {"poisson_ratio", 0.3},
                                {"shapes", Json::array({{{"type", "box"}, {"min", {0.15, 0.25, 0.15}}, {"max", {0.35, 0.45, 0.35}}}})}}})}};
-  Simulation<3> sim(read_scene(doc));
+  const SceneSpec scene = read_scene(doc);
+  Simulation<3> sim(scene);
+  const TimeStepPolicy policy(scene);
   double t = 0, min_J = 1;
   int wall_clamps = 0;
   while (t < 0.6) {
-    const double dt = sim.stable_dt();
+    const double dt = policy.stable_dt(sim);
     sim.step(dt);
     t += dt;
     min_J = std::min(min_J, double(sim.last_step().solid_min_J));
@@ -252,7 +258,7 @@ TEST(SolidSimulation3dTest, DroppedCubeLandsAndRests) {
   }
   EXPECT_GT(min_J, 0.8);
   EXPECT_EQ(wall_clamps, 0);  // nothing pushed back through a wall
-  const Vec<3> com = sim.solid_centre_of_mass(0);
+  const Vec<3> com = body_centre_of_mass(sim, 0);
   EXPECT_NEAR(com[0], 0.25, 1e-9);  // symmetric drop: no sideways drift
   EXPECT_NEAR(com[2], 0.25, 1e-9);
   EXPECT_LT(com[1], 0.1 + 2 * 0.05);  // landed (started at 0.35), within two cells of resting on the floor

@@ -1,0 +1,109 @@
+// Optional position correction of the fluid particles (experimental.position_correction;
+// method.md §3 step 6): particles drift into clusters and gaps because the projection
+// makes the grid velocity divergence-free, not the particle flow. One extra solve with the
+// same operators finds the smallest (mass-weighted) displacement field d of the corners with
+//   integral over cell i of div d = relaxation (phi_i - 1) dx^dim,  B d = 0,
+// phi_i the particles' volume fraction in cell i; cells next to empty space are only
+// expanded (phi > 1), never compressed, since they may be partly empty. Particles then
+// move by the N1 interpolation of d. The wall rows keep them off the walls.
+// With solids, phi counts the solid particles' current volume too (the reference code
+// does the same), so water crowded against or into a body is spread back out, and a
+// fluid cell's face towards a cell that is at least half solid and holds no fluid gets a
+// wall row (no displacement through it), so the correction never pushes water into a body.
+#pragma once
+
+#include <array>
+#include <fmt/format.h>
+#include <vector>
+
+#include "core/errors.h"
+#include "fluid/fluid_operators.h"
+#include "linear_solver/linear_solver.h"
+#include "particles/volume_per_cell.h"
+#include "pressure/pressure_system.h"
+#include "transfer/apic.h"
+
+namespace iqmpm {
+
+// Moves the fluid particles (and sorts them by cell); the caller keeps them in the domain.
+template <int dim>
+void correct_fluid_positions(const Grid<dim>& grid, Particles<dim>& fluid, const Particles<dim>& solid,
+                             const std::array<std::array<bool, 2>, dim>& slip, Real density, Real relaxation,
+                             const LinearSolverOptions& solver_options) {
+  const ParticleBins<dim> bins = sort_particles_by_cell(grid, fluid);
+  GridMomentum<dim> momentum;
+  fluid_particles_to_grid(grid, fluid, bins, momentum);
+  const FluidOperators<dim> ops = build_fluid_operators<dim>(grid, fluid, bins, momentum, density, slip);
+  const int nv = ops.velocity_dofs(), np = ops.pressure_unknowns();
+  const Real cell_volume = grid.cell_volume();
+  const GridLayout<dim> cells = grid.dual_cells();
+  const bool has_solids = !solid.empty();
+  const std::vector<Real> solid_volume = has_solids ? particle_volume_per_cell(grid, solid, true) : std::vector<Real>();
+  // Faces between a fluid cell and a (mostly) solid cell without fluid: no displacement.
+  std::vector<Triplet> solid_face_rows;
+  int solid_faces = 0;
+  if (has_solids) {
+    const GridLayout<dim> corners = grid.corners();
+    const Real face_weight = cell_volume / grid.dx / Real(1 << (dim - 1));
+    for (int i = 0; i < np; ++i) {
+      const IVec<dim> cell = cells.multi_index(ops.cell_of_pressure[i]);
+      for (int axis = 0; axis < dim; ++axis)
+        for (int side = 0; side < 2; ++side) {
+          IVec<dim> neighbour = cell;
+          neighbour[axis] += side == 0 ? -1 : 1;
+          if (!cells.contains(neighbour)) continue;
+          const int k = cells.index(neighbour);
+          if (ops.pressure_of_cell[k] >= 0 || solid_volume[k] < Real(0.5) * cell_volume) continue;
+          const Real normal = side == 0 ? -1 : 1;
+          const std::size_t before = solid_face_rows.size();
+          for_each_offset<dim, 2>([&](const IVec<dim>& offset) {
+            if (offset[axis] != side) return;
+            const int dof = ops.dof_of_corner[corners.index(cell + offset)];
+            if (dof >= 0) solid_face_rows.emplace_back(solid_faces, dof * dim + axis, face_weight * normal);
+          });
+          if (solid_face_rows.size() > before) ++solid_faces;  // an empty row would be singular
+        }
+    }
+  }
+  std::vector<Real> target(np + ops.wall_faces.size() + solid_faces, 0);
+  for (int i = 0; i < np; ++i) {
+    const int cell = ops.cell_of_pressure[i];
+    Real volume = solid_volume.empty() ? 0 : solid_volume[cell];
+    for (int p = bins.begin(cell); p < bins.end(cell); ++p) volume += fluid.initial_volume[p];
+    Real excess = volume / cell_volume - 1;
+    if (!ops.interior[i]) excess = std::max(excess, Real(0));
+    // G^fT d = -integral of div d.
+    target[i] = -relaxation * excess * cell_volume;
+  }
+  Eigen::VectorXd inverse_mass(nv * dim);
+  for (int d = 0; d < nv; ++d)
+    for (int a = 0; a < dim; ++a) inverse_mass[d * dim + a] = 1 / ops.mass[d];
+  PressureSystem correction;
+  correction.reset(inverse_mass);
+  correction.add_block("p_f", np, ops.gradient_transpose);
+  if (!ops.wall_faces.empty()) correction.add_block("y", int(ops.wall_faces.size()), ops.wall_rows);
+  if (solid_faces > 0) correction.add_block("solid faces", solid_faces, solid_face_rows);
+  correction.assemble(1);
+  // d = 0 - M^-1 D^T q with A q = -target gives D d = target.
+  Eigen::VectorXd rhs = -Eigen::Map<const Eigen::VectorXd>(target.data(), Eigen::Index(target.size()));
+  Eigen::VectorXd q;
+  auto solver = make_linear_solver(solver_options, correction.unknowns(), dim);
+  const auto stats = solver->solve(correction.matrix(), rhs, q);
+  if (!stats.converged || !q.allFinite())
+    throw NumericalFailure(fmt::format("position correction solve did not converge (relative residual {:.3g})", stats.relative_residual));
+  const Eigen::VectorXd displacement = correction.corrected_velocity(Eigen::VectorXd::Zero(nv * dim), q);
+  std::vector<Vec<dim>> corner_displacement(grid.corners().size(), Vec<dim>::Zero());
+  for (int d = 0; d < nv; ++d)
+    for (int a = 0; a < dim; ++a) corner_displacement[ops.corner_of_dof[d]][a] = displacement[d * dim + a];
+  const GridLayout<dim> corners = grid.corners();
+  const int n = int(fluid.size());
+#pragma omp parallel for schedule(static)
+  for (int p = 0; p < n; ++p) {
+    const auto stencil = linear_stencil<dim>(grid.to_cells(fluid.position[p]), grid.dx);
+    Vec<dim> shift = Vec<dim>::Zero();
+    for_each_offset<dim, 2>([&](const IVec<dim>& offset) { shift += stencil.weight(offset) * corner_displacement[corners.index(stencil.base + offset)]; });
+    fluid.position[p] += shift;
+  }
+}
+
+}  // namespace iqmpm

@@ -1,0 +1,75 @@
+// Per-step solver statistics accumulated over a run, for summary.json.
+#pragma once
+
+#include <algorithm>
+#include <limits>
+#include <string>
+
+#include "scene/json_reader.h"
+#include "simulation/simulation.h"
+
+namespace iqmpm {
+
+class RunStatistics {
+ public:
+  void add(const StepStats& s) {
+    ++steps_;
+    active_cells_max_ = std::max(active_cells_max_, s.pressure_unknowns);
+    linear_.add(s.linear.iterations);
+    wall_clamps_ += s.wall_clamps;
+    shifted_solves_ += s.linear.shifted;
+    newton_.add(s.newton_iterations);
+    newton_cg_total_ += s.newton_cg_iterations;
+    solid_min_J_ = std::min(solid_min_J_, double(s.solid_min_J));
+    contact_rounds_.add(s.contact_rounds);
+    unsettled_steps_ += !s.contact_settled;
+    modified_solves_ += s.modified_solves;
+    linear_method_ = s.linear.method;
+  }
+  long steps() const { return steps_; }
+
+  // The statistics' fields of summary.json.
+  void write(Json& summary, bool has_solids) const {
+    const bool any = steps_ > 0;
+    summary["active_cells_max"] = active_cells_max_;
+    summary["linear_solver"] = linear_method_;
+    summary["linear_iterations"] = {{"min", any ? linear_.min : 0}, {"mean", linear_.mean(steps_)}, {"max", linear_.max}};
+    summary["newton_iterations"] = {{"min", any && has_solids ? newton_.min : 0},
+                                    {"mean", newton_.mean(steps_)},
+                                    {"max", newton_.max},
+                                    {"cg_per_step", any ? double(newton_cg_total_) / steps_ : 0.0}};
+    summary["solid_min_J"] = solid_min_J_;
+    // Pressure solves per step: above 1 with the unilateral interface (active-set rounds);
+    // factor_modified: solves done by modifying the LDL^T factor's changed rows.
+    summary["pressure_solves"] = {{"mean", contact_rounds_.mean(steps_)},
+                                  {"max", contact_rounds_.max},
+                                  {"unsettled_steps", unsettled_steps_},
+                                  {"factor_modified", modified_solves_}};
+    summary["wall_clamps"] = wall_clamps_;
+    summary["shifted_solves"] = shifted_solves_;  // direct solves retried with a tiny diagonal shift
+  }
+
+ private:
+  struct Range {
+    long total = 0;
+    int min = std::numeric_limits<int>::max(), max = 0;
+    void add(int v) {
+      total += v;
+      min = std::min(min, v);
+      max = std::max(max, v);
+    }
+    double mean(long steps) const { return steps ? double(total) / steps : 0.0; }
+  };
+  long steps_ = 0;
+  int active_cells_max_ = 0;
+  Range linear_, newton_, contact_rounds_;
+  long newton_cg_total_ = 0;
+  int wall_clamps_ = 0;
+  long shifted_solves_ = 0;
+  double solid_min_J_ = 1;
+  int unsettled_steps_ = 0;
+  long modified_solves_ = 0;
+  std::string linear_method_;
+};
+
+}  // namespace iqmpm

@@ -1,0 +1,264 @@
+// The projection (method.md §4, §5): the operators of both materials and the interface,
+// the pressure-only system A = dt D M^-1 D^T + C, its solve under the interface
+// constraint, and the velocities it gives.
+#pragma once
+
+#include <fmt/format.h>
+
+#include "core/errors.h"
+#include "interface/interface_force.h"
+#include "interface/solid_corners.h"
+#include "simulation/simulation.h"
+
+namespace iqmpm {
+
+// §4: G^f, M^f, B (fluid); G^s, S (ghost matrix); H^s, H^f (interface), after both
+// materials' dofs are numbered.
+template <int dim>
+void Simulation<dim>::build_operators() {
+  if (has_fluid()) {
+    auto scope = timer_.scope("fluid operators");
+    FluidQuadratureOptions<dim> quadrature;
+    quadrature.surface_cells_at_centre = options_.surface_cells_at_centre;
+    solid_corners_.clear();
+    if (!iq_points_.empty()) {
+      // Corners reached only by borrowed fluid lie inside a solid and move with it, and so
+      // do those well inside a solid (docs/method.md#solid-corners).
+      quadrature.real_fluid_bins = &fluid_bins_;
+      solid_corners_ = solid_corners<dim>(grid_, solid_, slip_, options_.solid_corner_fraction);
+      if (!solid_corners_.empty()) quadrature.solid_corners = &solid_corners_;
+      quadrature.volume_points = &borrowed_points_;
+      quadrature.volume_point_bins = &borrowed_point_bins_;
+    }
+    ops_ = build_fluid_operators<dim>(grid_, fluid_, fluid_bins_, corner_momentum_, options_.fluid_density, slip_, quadrature);
+  }
+  if (has_solids()) {
+    auto scope = timer_.scope("solid operators");
+    solid_ops_ = build_solid_operators<dim>(grid_, solid_, solid_bins_, node_momentum_.mass, ghost_stiffness_);
+  }
+  if (!iq_points_.empty()) {
+    auto scope = timer_.scope("interface quadrature");
+    iq_ops_ = build_interface_operators(grid_, iq_points_, solid_, mass_reflected_across_walls<dim>(grid_, node_momentum_.mass, slip_),
+                                        solid_ops_.dof_of_node, ops_.dof_of_corner, solid_ops_.velocity_dofs() * dim);
+  }
+}
+
+// §5: the stacked velocities are the solid nodes' (v_s*, after Newton) then the fluid
+// corners' (v_f^n); the blocks are p_g (ghost matrix, G^sT with compliance S/dt and offset
+// S p_g^n/dt), p_f (G^fT), y (B) and h (H^f v_f - H^s v_s), each present only when the
+// scene needs it. A clamped node, or a component held by a wall, gets zero inverse mass:
+// the solve cannot move it.
+template <int dim>
+void Simulation<dim>::assemble_pressure_system(Real dt) {
+  auto scope = timer_.scope("assembly");
+  const int ns = has_solids() ? solid_ops_.velocity_dofs() : 0;
+  const int nf = has_fluid() ? ops_.velocity_dofs() : 0;
+  fluid_column_offset_ = ns * dim;
+  Eigen::VectorXd inverse_mass((ns + nf) * dim);
+  velocity_star_.resize((ns + nf) * dim);
+  for (int d = 0; d < ns; ++d) {
+    const int node = solid_ops_.node_of_dof[d];
+    const bool clamped = !clamped_node_.empty() && clamped_node_[node];
+    const Vec<dim>& v = node_velocity_star_[node];
+    for (int a = 0; a < dim; ++a) {
+      // A wall-held component is exactly zero after Newton and must stay so.
+      const bool held = clamped || (wall_held_axes_[node] & (1u << a));
+      inverse_mass[d * dim + a] = held ? 0 : 1 / node_momentum_.mass[node];
+      velocity_star_[d * dim + a] = v[a];
+    }
+  }
+  for (int d = 0; d < nf; ++d) {
+    const int corner = ops_.corner_of_dof[d];
+    // v^n from the APIC transfer (momentum / transferred mass); M^f from the quadrature.
+    const Vec<dim> v = corner_momentum_.momentum[corner] / corner_momentum_.mass[corner];
+    for (int a = 0; a < dim; ++a) {
+      inverse_mass[fluid_column_offset_ + d * dim + a] = 1 / ops_.mass[d];
+      velocity_star_[fluid_column_offset_ + d * dim + a] = v[a];
+    }
+  }
+  system_.reset(inverse_mass);
+  if (!solid_hessian_nodes_.empty()) set_solid_mass_block();
+  layout_ = SolutionLayout{};
+  if (has_solids()) {
+    std::vector<Real> compliance(solid_ops_.pressure_unknowns()), offset(solid_ops_.pressure_unknowns());
+    for (int j = 0; j < solid_ops_.pressure_unknowns(); ++j) {
+      compliance[j] = solid_ops_.compliance[j] / dt;
+      offset[j] = solid_ops_.compliance[j] * solid_ops_.previous_pressure[j] / dt;
+    }
+    layout_.ghost = system_.unknowns();
+    system_.add_block("p_g", solid_ops_.pressure_unknowns(), solid_ops_.gradient_transpose, compliance, offset);
+  }
+  if (has_fluid()) {
+    layout_.pressure = system_.unknowns();
+    const int block = system_.add_block("p_f", ops_.pressure_unknowns(), ops_.gradient_transpose, {}, {}, fluid_column_offset_);
+    // Fluid corners inside a solid take the solid's velocity: their G^fT entries act on it.
+    std::vector<Triplet> on_solid;
+    for (const auto& entry : ops_.solid_corner_gradient)
+      for_each_solid_weight(grid_, grid_.corners().multi_index(entry.corner), solid_ops_.dof_of_node, [&](int dof, Real weight) {
+        for (int a = 0; a < dim; ++a) on_solid.emplace_back(entry.row, dof * dim + a, weight * entry.coefficient[a]);
+      });
+    system_.add_entries(block, on_solid);
+    if (!ops_.wall_faces.empty()) {
+      layout_.wall = system_.unknowns();
+      system_.add_block("y", int(ops_.wall_faces.size()), ops_.wall_rows, {}, {}, fluid_column_offset_);
+    }
+  }
+  if (!iq_points_.empty()) {  // rows H^f v_f - H^s v_s, columns already stacked
+    layout_.interface = system_.unknowns();
+    system_.add_block("h", iq_ops_.multipliers(), iq_ops_.rows);
+  }
+  system_.assemble(dt);
+  last_.pressure_unknowns = system_.unknowns();
+  last_.velocity_unknowns = (ns + nf) * dim;
+}
+
+// experimental.solid_response = stiffness: the free solid velocity entries take the Newton
+// Hessian M^s + dt^2 K at v* as their mass in the solve (pressure_system.h). A component
+// held by a wall stays out: its inverse mass is zero, the solve cannot move it.
+template <int dim>
+void Simulation<dim>::set_solid_mass_block() {
+  const int n = int(solid_hessian_nodes_.size()) * dim;
+  std::vector<int> reduced(n, -1), columns;
+  for (int k = 0; k < n; ++k) {
+    const int node = solid_hessian_nodes_[k / dim], a = k % dim;
+    if (wall_held_axes_[node] & (1u << a)) continue;
+    reduced[k] = int(columns.size());
+    columns.push_back(solid_ops_.dof_of_node[node] * dim + a);
+  }
+  std::vector<Triplet> entries;
+  for (int row = 0; row < n; ++row)
+    for (typename decltype(solid_hessian_)::InnerIterator it(solid_hessian_, row); it; ++it)
+      if (reduced[row] >= 0 && reduced[it.col()] >= 0) entries.emplace_back(reduced[row], reduced[it.col()], it.value());
+  SparseMatrix mass(int(columns.size()), int(columns.size()));
+  mass.setFromTriplets(entries.begin(), entries.end());
+  system_.set_mass_block(std::move(columns), std::move(mass));
+}
+
+// §5 with the interface constraint: one solve (bilateral), or active-set rounds
+// (unilateral, interface/unilateral_contact.h), each warm-started from the last.
+template <int dim>
+void Simulation<dim>::solve_with_interface_constraint() {
+  if (options_.unilateral) {
+    std::vector<int> p_rows_on_solid;
+    for (const auto& entry : ops_.solid_corner_gradient) p_rows_on_solid.push_back(entry.row);
+    contact_.start(system_, layout_.interface, iq_ops_.cell_of_multiplier, layout_.pressure, p_rows_on_solid, ops_.cell_of_pressure);
+  }
+  solve_pressure_system();
+  while (options_.unilateral && contact_.update(system_, velocity_star_, lambda_, grid_.dual_cells().size())) {
+    if (last_.contact_rounds == options_.max_contact_rounds) {
+      last_.contact_settled = false;  // keep the last solve's (consistent) solution
+      break;
+    }
+    ++last_.contact_rounds;
+    system_.release(contact_.released_rows());  // same matrix pattern, released rows decoupled
+    // The next solve's matrix differs from the last one in these rows only (an LDL^T
+    // solver modifies its factor instead of factorising).
+    pressure_solver_->expect_row_changes(contact_.take_newly_released(), contact_.take_newly_restored());
+    solve_pressure_system();
+  }
+}
+
+template <int dim>
+void Simulation<dim>::solve_pressure_system() {
+  auto scope = timer_.scope("solve");
+  const Eigen::VectorXd rhs = system_.rhs(velocity_star_);
+  const int cells = grid_.dual_cells().size();
+  std::vector<int> wall_location(ops_.wall_faces.size());
+  for (std::size_t f = 0; f < ops_.wall_faces.size(); ++f) {
+    const auto& face = ops_.wall_faces[f];
+    wall_location[f] = face.dual_cell * 2 * dim + face.wall.axis * 2 + face.wall.side;
+  }
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(system_.size());
+  warm_start_.guess(WarmStart::ghost, layout_.ghost, solid_ops_.cell_of_pressure, x);
+  warm_start_.guess(WarmStart::pressure, layout_.pressure, ops_.cell_of_pressure, x);
+  warm_start_.guess(WarmStart::wall, layout_.wall, wall_location, x);
+  warm_start_.guess(WarmStart::interface, layout_.interface, iq_ops_.cell_of_multiplier, x);
+  // One solver kept across solves: a direct one reuses its symbolic analysis while the
+  // pattern repeats (the active-set rounds of a step).
+  if (!pressure_solver_ || pressure_solver_->kind() != linear_solver_kind(options_.pressure_solver, system_.size(), dim))
+    pressure_solver_ = make_linear_solver(options_.pressure_solver, system_.size(), dim);
+  last_.linear = pressure_solver_->solve(system_.matrix(), rhs, x);
+  last_.modified_solves += last_.linear.modified_rows > 0;
+  if (!last_.linear.converged || !x.allFinite())
+    throw NumericalFailure(fmt::format(
+        "pressure solve ({}) did not converge: relative residual {:.3g} after {} iterations (tolerance {:.1g}, {} unknowns); "
+        "try solver.method=cholmod, a smaller cfl, or a larger solver.max_iterations",
+        last_.linear.method, last_.linear.relative_residual, last_.linear.iterations, options_.pressure_solver.tolerance,
+        system_.unknowns()));
+  lambda_ = x;
+  warm_start_.remember(WarmStart::ghost, layout_.ghost, solid_ops_.cell_of_pressure, cells, x);
+  warm_start_.remember(WarmStart::pressure, layout_.pressure, ops_.cell_of_pressure, cells, x);
+  warm_start_.remember(WarmStart::wall, layout_.wall, wall_location, cells * 2 * dim, x);
+  warm_start_.remember(WarmStart::interface, layout_.interface, iq_ops_.cell_of_multiplier, cells, x);
+}
+
+// §5: v^{n+1} = v* - dt M^-1 D^T lambda.
+template <int dim>
+void Simulation<dim>::update_grid_velocities() {
+  auto scope = timer_.scope("velocity update");
+  velocity_next_ = system_.corrected_velocity(velocity_star_, lambda_);
+  if (has_fluid()) {
+    corner_velocity_.assign(grid_.corners().size(), Vec<dim>::Zero());
+    for (int d = 0; d < ops_.velocity_dofs(); ++d)
+      for (int a = 0; a < dim; ++a)
+        corner_velocity_[ops_.corner_of_dof[d]][a] = velocity_next_[fluid_column_offset_ + d * dim + a];
+  }
+  if (has_solids()) {
+    node_velocity_ = node_velocity_star_;
+    for (int d = 0; d < solid_ops_.velocity_dofs(); ++d)
+      for (int a = 0; a < dim; ++a) node_velocity_[solid_ops_.node_of_dof[d]][a] = velocity_next_[d * dim + a];
+    // A fluid particle that strayed inside a solid takes the solid's velocity from the
+    // corners that move with it (coupling.solid_corner_fraction).
+    if (has_fluid() && !solid_corners_.empty()) {
+      const GridLayout<dim> corners = grid_.corners();
+      for (int k = 0; k < corners.size(); ++k) {
+        if (!solid_corners_[k] || ops_.dof_of_corner[k] >= 0) continue;
+        Vec<dim> v = Vec<dim>::Zero();
+        for_each_solid_weight(grid_, corners.multi_index(k), solid_ops_.dof_of_node,
+                              [&](int dof, Real weight) { v += weight * node_velocity_[solid_ops_.node_of_dof[dof]]; });
+        corner_velocity_[k] = v;
+      }
+    }
+  }
+}
+
+// §7 (interface/interface_force.h): the coupling rows' force, before the particles move.
+template <int dim>
+void Simulation<dim>::measure_interface_forces() {
+  if (layout_.interface < 0) {
+    particle_force_.assign(solid_.size(), Vec<dim>::Zero());
+    return;
+  }
+  Eigen::VectorXd coupling = Eigen::VectorXd::Zero(system_.unknowns());
+  coupling.segment(layout_.interface, iq_ops_.multipliers()) = lambda_.segment(layout_.interface, iq_ops_.multipliers());
+  if (!ops_.solid_corner_gradient.empty())
+    coupling.segment(layout_.pressure, ops_.pressure_unknowns()) = lambda_.segment(layout_.pressure, ops_.pressure_unknowns());
+  const Eigen::VectorXd nodal = -(system_.constraint().transpose() * coupling);
+  particle_force_ = interface_force_on_particles(grid_, solid_, node_momentum_.mass, solid_ops_, nodal);
+}
+
+template <int dim>
+bool Simulation<dim>::has_fluid_pressure(int dual_cell) const {
+  return layout_.pressure >= 0 && !ops_.pressure_of_cell.empty() && lambda_.size() > 0 && ops_.pressure_of_cell[dual_cell] >= 0;
+}
+
+template <int dim>
+Real Simulation<dim>::fluid_pressure(int dual_cell) const {
+  if (layout_.pressure < 0 || ops_.pressure_of_cell.empty() || lambda_.size() == 0) return 0;
+  const int i = ops_.pressure_of_cell[dual_cell];
+  return i >= 0 ? lambda_[layout_.pressure + i] : 0;
+}
+
+template <int dim>
+Real Simulation<dim>::ghost_pressure(int dual_cell) const {
+  if (layout_.ghost < 0 || solid_ops_.pressure_of_cell.empty() || lambda_.size() == 0) return 0;
+  const int j = solid_ops_.pressure_of_cell[dual_cell];
+  return j >= 0 ? lambda_[layout_.ghost + j] : 0;
+}
+
+template <int dim>
+Real Simulation<dim>::wall_multiplier(int face) const {
+  return layout_.wall >= 0 && lambda_.size() > 0 ? lambda_[layout_.wall + face] : 0;
+}
+
+}  // namespace iqmpm

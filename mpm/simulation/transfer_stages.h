@@ -1,0 +1,117 @@
+// The particle stages of the step (method.md §3 steps 1, 3, 5, 6): sorting, interface
+// quadrature, P2G, G2P and the optional position correction.
+#pragma once
+
+#include <cmath>
+#include <fmt/format.h>
+#include <limits>
+
+#include "core/errors.h"
+#include "fluid/position_correction.h"
+#include "simulation/simulation.h"
+
+namespace iqmpm {
+
+template <int dim>
+void Simulation<dim>::sort_particles() {
+  auto scope = timer_.scope("sort");
+  if (has_fluid()) fluid_bins_ = sort_particles_by_cell(grid_, fluid_);
+  if (has_solids()) solid_bins_ = sort_particles_by_cell(grid_, solid_);
+}
+
+// §3 step 3: IQ points, and the massless points that carry their borrowed fluid volume
+// into G^f beside the (already sorted) fluid particles.
+template <int dim>
+void Simulation<dim>::find_interface_quadrature() {
+  auto scope = timer_.scope("interface quadrature");
+  iq_points_ = find_interface_points(grid_, fluid_, fluid_bins_, solid_, options_.interface_reach);
+  if (iq_points_.empty()) return;
+  borrowed_points_ = borrowed_fluid_points(grid_, fluid_, solid_, iq_points_);
+  borrowed_point_bins_ = sort_particles_by_cell(grid_, borrowed_points_);
+}
+
+// §3 step 1: APIC P2G; gravity enters the grid momentum.
+template <int dim>
+void Simulation<dim>::particles_to_grid(Real dt) {
+  auto scope = timer_.scope("p2g");
+  if (has_fluid()) {
+    fluid_particles_to_grid(grid_, fluid_, fluid_bins_, corner_momentum_);
+    for (std::size_t k = 0; k < corner_momentum_.mass.size(); ++k)
+      corner_momentum_.momentum[k] += dt * corner_momentum_.mass[k] * gravity_;
+  }
+  if (has_solids()) {
+    solid_particles_to_grid(grid_, solid_, solid_bins_, node_momentum_);
+    for (std::size_t k = 0; k < node_momentum_.mass.size(); ++k)
+      node_momentum_.momentum[k] += dt * node_momentum_.mass[k] * gravity_;
+  }
+}
+
+// §3 step 5.
+template <int dim>
+void Simulation<dim>::grid_to_particles(Real dt) {
+  auto scope = timer_.scope("g2p");
+  if (has_fluid()) {
+    fluid_grid_to_particles(grid_, corner_velocity_, dt, fluid_);
+    keep_particles_in_domain(fluid_, "fluid");
+  }
+  if (!has_solids()) return;
+  // Solid: v_p, C_p, F_p^{n+1} = (I + dt grad v) F_p^n; J_g = 1 - p_g / lambda_g from the
+  // solved matrix pressure of the particle's dual cell (before it moves); then x += dt v.
+  std::vector<Mat<dim>> velocity_gradient;
+  solid_grid_to_particles(grid_, node_velocity_, solid_, &velocity_gradient);
+  const GridLayout<dim> cells = grid_.dual_cells();
+  const int n = int(solid_.size());
+  Real min_J = std::numeric_limits<Real>::infinity();
+#pragma omp parallel for schedule(static) reduction(min : min_J)
+  for (int p = 0; p < n; ++p) {
+    solid_.deformation_gradient[p] = (Mat<dim>::Identity() + dt * velocity_gradient[p]) * solid_.deformation_gradient[p];
+    min_J = std::min(min_J, solid_.deformation_gradient[p].determinant());
+    const int cell = cells.index(dual_cell_of<dim>(grid_.to_cells(solid_.position[p])));
+    solid_.ghost_J[p] = 1 - ghost_pressure(cell) / ghost_stiffness_[solid_.body[p]];
+    solid_.position[p] += dt * solid_.velocity[p];
+  }
+  last_.solid_min_J = min_J;
+  if (!(min_J > 0))
+    throw NumericalFailure(fmt::format("a solid particle inverted (det F = {:.3g} <= 0): the step was too large for the "
+                                       "solid's stiffness; lower dt_max or cfl", min_J));
+  keep_particles_in_domain(solid_, "solid");
+}
+
+// §3 step 6 (fluid/position_correction.h).
+template <int dim>
+void Simulation<dim>::correct_fluid_positions() {
+  auto scope = timer_.scope("position correction");
+  iqmpm::correct_fluid_positions<dim>(grid_, fluid_, solid_, slip_, options_.fluid_density, options_.position_correction,
+                                 options_.pressure_solver);
+  keep_particles_in_domain(fluid_, "fluid");
+}
+
+// A particle pushed through a slip wall by round-off or a large step is put back just
+// inside; one more than a cell beyond any side, or beyond a side without a wall, means the
+// step was unstable and the run stops (method.md §9).
+template <int dim>
+void Simulation<dim>::keep_particles_in_domain(Particles<dim>& particles, const char* kind) {
+  const Vec<dim> lower = grid_.origin, upper = grid_.upper();
+  const Real margin = 1e-4 * grid_.dx;
+  int clamps = 0;
+  for (std::size_t p = 0; p < particles.size(); ++p) {
+    Vec<dim>& x = particles.position[p];
+    if (!x.allFinite() || !particles.velocity[p].allFinite())
+      throw NumericalFailure(fmt::format("{} particle {} has a non-finite position or velocity (NaN): the step was unstable", kind, p));
+    for (int a = 0; a < dim; ++a)
+      for (int s = 0; s < 2; ++s) {
+        const Real wall = s == 0 ? lower[a] : upper[a];
+        const Real outside = s == 0 ? wall - x[a] : x[a] - wall;
+        if (outside < -margin) continue;
+        if (!slip_[a][s] || outside > grid_.dx)
+          throw NumericalFailure(fmt::format(
+              "{} particle {} left the domain through side {}{} at {:.4g} m (wall at {:.4g} m){}", kind, p, "xyz"[a],
+              s == 0 ? '-' : '+', x[a], wall, slip_[a][s] ? ": more than a cell beyond the wall in one step, lower cfl" : ""));
+        x[a] = s == 0 ? wall + margin : wall - margin;
+        ++clamps;
+      }
+  }
+  last_.wall_clamps += clamps;
+}
+
+}  // namespace iqmpm
