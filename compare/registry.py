@@ -220,7 +220,7 @@ def _hydrostatic(name: str, dim: int) -> Benchmark:
 
 REGISTRY: dict[str, Benchmark] = {}
 
-# Typical wall times on the 2-core reference machine (README, Measured; one thread, default
+# Typical wall times on the 2-core reference machine (docs/journal.md; one thread, default
 # resolution; OpenFOAM level 1, set-up and VTK included): (IQ-MPM s, OpenFOAM s). They only
 # order validate's queue, longest first.
 _COST_S: dict[str, tuple[float, float]] = {
@@ -278,7 +278,7 @@ _register(Benchmark(
         MetricSpec("height_left", "m", "water height at the left wall"),
     ),
     scalars=(
-        # The force has single-step spikes (README, Measured); its 10 ms means and impulses
+        # The force has single-step spikes (docs/method.md#12-known-limits); its 10 ms means and impulses
         # are what compares with interFoam.
         ScalarSpec("force_peak_10ms", FORCE_2D, "largest 10 ms mean of the obstacle force",
                    column="obstacle_force_x", reducer="window_peak", window=0.01),
@@ -434,8 +434,8 @@ def _floating_cube(name: str, title: str, centre: float, min_timeout: float = 0.
                        reference=0.1, reference_label="Archimedes", column="water_level",
                        subtract_column="com_y", offset=0.1, reducer="mean_tail", tail=0.4),
             # The same against the hydrostatic head far from the cube (p / (rho_f g) +
-            # height): the column tops of `water_level` read a few mm high in 3-D (README,
-            # coupling).
+            # height): the column tops of `water_level` read a few mm high in 3-D
+            # (docs/method.md#12-known-limits).
             ScalarSpec("head_draft", "m", "draft: hydrostatic head far from the cube - (centre - 0.1 m), mean over last 40 %",
                        reference=0.1, reference_label="Archimedes", column="still_water_level",
                        subtract_column="com_y", offset=0.1, reducer="mean_tail", tail=0.4),
@@ -449,7 +449,7 @@ def _floating_cube(name: str, title: str, centre: float, min_timeout: float = 0.
 
 
 _register(_floating_cube("floating_block_3d", "Floating cube (3-D)", 0.5028))
-# 77 min on two threads at dt_max 0.625 ms (README, Measured); one thread is slower.
+# 77 min on two threads at dt_max 0.625 ms (docs/journal.md); one thread is slower.
 _register(_floating_cube("floating_block_3d_fine", "Floating cube (3-D), dx 0.025, 0.6 m tank, dt 0.625 ms", 0.5078,
                          min_timeout=4 * 3600))
 

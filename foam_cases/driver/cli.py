@@ -76,6 +76,9 @@ def validate(args: argparse.Namespace) -> CaseSpec:
     for s in args.set:
         if ":" not in s or "=" not in s.split(":", 1)[1]:
             raise UsageError(f"--set '{s}': expected FILE:ENTRY=VALUE")
+    for option, path in (("--out", args.out), ("--work", args.work)):
+        if path is not None and path.exists() and not path.is_dir():
+            raise UsageError(f"{option} '{path}': exists and is not a folder; accepted: a folder or a new path")
     return spec
 
 

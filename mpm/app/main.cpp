@@ -108,7 +108,7 @@ int main(int argc, char** argv) {
   run->add_option("scene", scene_path, "scene file (JSON); `iqmpm keys` lists every key")->required()->check(CLI::ExistingFile);
   run->add_option("--out,-o", out_dir, "output folder (created; existing files are replaced)")->capture_default_str();
   run->add_option("--set,-s", overrides, "override a scene key, e.g. --set dx=0.002 --set solver.method=pcg (repeatable)");
-  run->add_option("--threads,-j", threads, "OpenMP threads (0: all cores)")->check(CLI::NonNegativeNumber)->capture_default_str();
+  run->add_option("--threads,-j", threads, "OpenMP threads (0: all cores; at most 1024)")->check(CLI::Range(0, 1024))->capture_default_str();
   run->add_flag("--quiet,-q", quiet, "no progress output");
 
   auto* check = app.add_subcommand("check", "validate a scene file (and --set overrides) without running it");
@@ -117,7 +117,20 @@ int main(int argc, char** argv) {
 
   auto* keys = app.add_subcommand("keys", "print every scene key with its type, default, accepted values and meaning");
 
-  CLI11_PARSE(app, argc, argv);
+  // Bad command lines are bad input: exit 2 with the message and the usage (help and
+  // --version exit 0 as CLI11 does).
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    fmt::print(stderr, "error: {}\n\n{}", e.what(), app.help());
+    return 2;
+  }
 
   auto console = spdlog::stderr_color_mt("console");
   spdlog::set_default_logger(console);

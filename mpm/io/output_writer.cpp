@@ -22,10 +22,19 @@ void write_file_atomically(const std::string& path, const std::string& text) {
   fs::rename(temporary, path);
 }
 
-OutputWriter::OutputWriter(std::string directory) : directory_(std::move(directory)) {
+OutputWriter::OutputWriter(std::string directory, bool frames) : directory_(std::move(directory)) {
   std::error_code ec;
-  fs::create_directories(fs::path(directory_) / "frames", ec);
+  fs::create_directories(directory_, ec);
   if (ec) throw InputError(fmt::format("--out '{}': cannot create the output folder: {}", directory_, ec.message()));
+  // An earlier run's outputs in the same folder would mix with this run's: remove what a
+  // run writes (and nothing else).
+  const fs::path root(directory_);
+  for (const char* name : {"frames", "particles.xdmf", "metrics.csv", "summary.json"}) {
+    fs::remove_all(root / name, ec);
+    if (ec) throw InputError(fmt::format("--out '{}': cannot replace the earlier run's '{}': {}", directory_, name, ec.message()));
+  }
+  if (frames) fs::create_directories(root / "frames", ec);
+  if (ec) throw InputError(fmt::format("--out '{}': cannot create the frames folder: {}", directory_, ec.message()));
 }
 
 namespace {

@@ -22,7 +22,9 @@ struct ParticleFrame {
 
 class OutputWriter {
  public:
-  explicit OutputWriter(std::string directory);
+  // Creates the folder (and frames/ when frames are written), removing an earlier run's
+  // frames, particles.xdmf, metrics.csv and summary.json.
+  OutputWriter(std::string directory, bool frames);
   void write_frame(const ParticleFrame& frame);
   void write_metrics(const std::vector<std::string>& columns, const std::vector<std::vector<double>>& rows) const;
   void write_summary(const Json& summary) const;

@@ -56,7 +56,7 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
   const Probes<dim> probes(scene, sim);
   const TimeStepPolicy policy(scene);
   std::unique_ptr<OutputWriter> writer;
-  if (!options.out_dir.empty()) writer = std::make_unique<OutputWriter>(options.out_dir);
+  if (!options.out_dir.empty()) writer = std::make_unique<OutputWriter>(options.out_dir, scene.write_frames);
 
   result.columns.push_back("t");
   for (std::size_t i = 0; i < probes.size(); ++i) result.columns.push_back(probes.name(i));

@@ -20,11 +20,13 @@ std::string type_name(const Json& value) {
 
 std::string format_number(Real v) { return fmt::format("{:g}", v); }
 
-std::string format_range(Real min, Real max, bool min_exclusive) {
+std::string format_range(Real min, Real max, bool min_exclusive, bool max_exclusive = false) {
   const bool has_min = std::isfinite(min), has_max = std::isfinite(max);
-  if (has_min && has_max) return fmt::format("{} {} and <= {}", min_exclusive ? ">" : ">=", format_number(min), format_number(max));
+  const char* below = max_exclusive ? "<" : "<=";
+  if (has_min && has_max)
+    return fmt::format("{} {} and {} {}", min_exclusive ? ">" : ">=", format_number(min), below, format_number(max));
   if (has_min) return fmt::format("{} {}", min_exclusive ? ">" : ">=", format_number(min));
-  if (has_max) return fmt::format("<= {}", format_number(max));
+  if (has_max) return fmt::format("{} {}", below, format_number(max));
   return "any finite number";
 }
 
@@ -50,8 +52,8 @@ void JsonReader::document(const std::string& key, const std::string& type, const
 }
 
 Real JsonReader::number(const std::string& key, std::optional<Real> fallback, Real min, Real max,
-                        const std::string& meaning, bool min_exclusive) {
-  const std::string range = format_range(min, max, min_exclusive);
+                        const std::string& meaning, bool min_exclusive, bool max_exclusive) {
+  const std::string range = format_range(min, max, min_exclusive, max_exclusive);
   document(key, "number", fallback ? format_number(*fallback) : "required", range, meaning);
   const Json* value = find(key);
   if (!value) {
@@ -62,7 +64,7 @@ Real JsonReader::number(const std::string& key, std::optional<Real> fallback, Re
   if (!value->is_number())
     throw InputError(fmt::format("scene key '{}': expected a number ({}), got {}", key_path(key), range, type_name(*value)));
   const Real v = value->get<Real>();
-  if (!std::isfinite(v) || v < min || v > max || (min_exclusive && v == min))
+  if (!std::isfinite(v) || v < min || v > max || (min_exclusive && v == min) || (max_exclusive && v == max))
     throw InputError(fmt::format("scene key '{}' = {}: out of range, accepted: {}", key_path(key), format_number(v), range));
   return v;
 }

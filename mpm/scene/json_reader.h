@@ -29,7 +29,7 @@ class JsonReader {
   JsonReader(const Json& object, std::string path, std::vector<KeyDoc>* docs = nullptr);
 
   Real number(const std::string& key, std::optional<Real> fallback, Real min, Real max,
-              const std::string& meaning, bool min_exclusive = false);
+              const std::string& meaning, bool min_exclusive = false, bool max_exclusive = false);
   int integer(const std::string& key, std::optional<int> fallback, int min, int max, const std::string& meaning);
   bool boolean(const std::string& key, std::optional<bool> fallback, const std::string& meaning);
   std::string choice(const std::string& key, std::optional<std::string> fallback,

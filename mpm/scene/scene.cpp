@@ -135,9 +135,7 @@ SolidSpec read_solid(JsonReader& r, int dim, int index) {
     throw InputError(fmt::format("scene key '{}': give the elasticity as either youngs_modulus and poisson_ratio, or mu and lambda (exactly one pair)", r.path()));
   if (young || doc) {
     const Real E = r.number("youngs_modulus", std::nullopt, 0, kInf, "Young's modulus E (Pa); with poisson_ratio (or give mu and lambda instead). 2-D is plane strain", true);
-    const Real nu = r.number("poisson_ratio", std::nullopt, -1, 0.5, "Poisson ratio nu, -1 < nu < 0.5", true);
-    if (!doc && nu >= 0.5)
-      throw InputError(fmt::format("scene key '{}.poisson_ratio' = {:g}: out of range, accepted: > -1 and < 0.5", r.path(), nu));
+    const Real nu = r.number("poisson_ratio", std::nullopt, -1, 0.5, "Poisson ratio nu", true, true);
     s.mu = E / (2 * (1 + nu));
     s.lambda = E * nu / ((1 + nu) * (1 - 2 * nu));
   }
@@ -201,6 +199,9 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
   scene.dt_min = root.number("dt_min", 1e-7, 0, kInf, "smallest time step (s); a smaller one needed stops the run", true);
   scene.dt_max = root.number("dt_max", 1e-2, 0, kInf, "largest time step (s)", true);
   if (!docs && scene.dt_min > scene.dt_max) throw InputError("scene key 'dt_min': must not exceed dt_max");
+  if (!docs && scene.end_time < scene.dt_min)
+    throw InputError(fmt::format("scene key 'end_time' = {:g}: shorter than one smallest step (dt_min = {:g} s); accepted: "
+                                 "end_time >= dt_min", scene.end_time, scene.dt_min));
   {
     JsonReader walls = root.object("walls", "boundary condition on each domain side (x-, x+, y-, y+, z-, z+)");
     for (int a = 0; a < 3; ++a)
@@ -345,6 +346,11 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
       if (scene.probes[i].type == ProbeType::hydrostatic_head &&
           (scene.fluid.shapes.empty() || std::all_of(scene.gravity.begin(), scene.gravity.end(), [](Real g) { return g == 0; })))
         throw InputError(fmt::format("scene key 'probes[{}].type' = \"hydrostatic_head\": needs fluid (fluid.shapes) and gravity", i));
+    const bool no_gravity = std::all_of(scene.gravity.begin(), scene.gravity.end(), [](Real g) { return g == 0; });
+    for (std::size_t i = 0; i < scene.solids.size(); ++i)
+      if (scene.solids[i].initial_pressure == InitialPressure::hydrostatic && (scene.fluid.shapes.empty() || no_gravity))
+        throw InputError(fmt::format("scene key 'solids[{}].initial_pressure' = \"hydrostatic\": needs fluid (fluid.shapes) "
+                                     "and gravity; accepted without them: \"zero\"", i));
     if (scene.fluid.shapes.empty() && scene.solids.empty())
       throw InputError("scene key 'fluid.shapes': the scene has no material (give at least one fluid shape or a solid in 'solids')");
     for (std::size_t i = 0; i < scene.solids.size(); ++i)
@@ -388,7 +394,7 @@ SceneSpec load_scene(const std::string& path, const std::vector<std::string>& ov
   Json document;
   try {
     document = Json::parse(buffer.str());
-  } catch (const Json::parse_error& e) {
+  } catch (const Json::exception& e) {  // syntax, or a number beyond double (1e999)
     throw InputError(fmt::format("scene file '{}' is not valid JSON: {}", path, e.what()));
   }
   for (const auto& assignment : overrides) apply_override(document, assignment);

@@ -51,6 +51,16 @@ def test_malformed_set_is_a_clear_error(tmp_path: Path) -> None:
     assert "FILE:ENTRY=VALUE" in r.stderr
 
 
+def test_out_that_is_a_file_is_a_clear_error(tmp_path: Path) -> None:
+    target = tmp_path / "a_file"
+    target.write_text("not a folder\n")
+    r = run("dam_break", "--level", "1", "--out", str(target))
+    assert r.returncode == 2
+    assert "exists and is not a folder" in r.stderr
+    assert "Traceback" not in r.stderr
+    assert target.read_text() == "not a folder\n"
+
+
 @needs_openfoam
 def test_dam_break_short_run_extracts_metrics(tmp_path: Path) -> None:
     out = tmp_path / "out"

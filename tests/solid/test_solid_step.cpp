@@ -1,7 +1,10 @@
 // Tests of the implicit solid step (method.md §3 step 2): the incremental potential's
 // derivatives by finite differences, the projected Hessian, invariance under translation,
 // Newton's convergence rate, Dirichlet nodes and a clamped block under gravity.
-// One suite runs over both materials in 2-D and 3-D, one over the dimensions only.
+// One suite runs over both materials in 2-D and 3-D, one over the dimensions only. The
+// potential is instantiated, and solid_step called, as the simulation's Newton stage does
+// (simulation/solid_stage.h): with SolidMaterial (the model chosen at run time) and the
+// Newton options resolved from a scene (simulation/set_up.h).
 #include <Eigen/Dense>
 #include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
@@ -13,10 +16,12 @@
 #include <string>
 #include <vector>
 
-#include "../core/test_helpers.h"
+#include "support/test_helpers.h"
 #include "materials/fixed_corotated.h"
 #include "materials/neo_hookean.h"
+#include "materials/solid_material.h"
 #include "particles/particles.h"
+#include "simulation/set_up.h"
 #include "solid/solid_step.h"
 #include "transfer/apic.h"
 
@@ -40,9 +45,35 @@ struct DimOf<NeoHookean<d>> {
   static constexpr int value = d;
 };
 
-template <class Material>
-Material test_material() {
-  return Material::from_young_poisson(/*E=*/1e5, /*nu=*/0.3);
+// The material as the simulation holds it (materials/solid_material.h: the model chosen
+// per body at run time), the one the simulation's Newton step instantiates the potential
+// and solid_step with; `Model` gives the model and its Lame parameters from E and nu.
+template <class Model>
+SolidMaterial<DimOf<Model>::value> material_of(Real youngs_modulus = 1e5, Real poisson_ratio = 0.3) {
+  constexpr int dim = DimOf<Model>::value;
+  const Model model = Model::from_young_poisson(youngs_modulus, poisson_ratio);
+  return {std::is_same_v<Model, NeoHookean<dim>> ? SolidModel::neo_hookean : SolidModel::fixed_corotated, model.mu,
+          model.lambda};
+}
+
+template <int dim>
+using Potential = SolidIncrementalPotential<dim, SolidMaterial<dim>>;
+
+// Newton's options as the simulation resolves them from a scene's defaults
+// (simulation/set_up.h): the direction by LDL^T in 2-D, by CG in 3-D.
+template <int dim>
+ProjectedNewtonOptions newton_options() {
+  return resolve_step_options(read_scene(testing::fluid_box_scene(dim, 0.1, std::vector<Real>(dim, 0.5),
+                                                                  std::vector<Real>(dim, 1.0))))
+      .newton;
+}
+
+// The potential's unknowns from node velocities dense over Grid::nodes() (solid_step's v*).
+template <int dim>
+Vector unknowns_of(const Potential<dim>& potential, const std::vector<Vec<dim>>& node_velocity) {
+  Vector v(potential.unknowns());
+  for (int r = 0; r * dim < potential.unknowns(); ++r) v.segment<dim>(dim * r) = node_velocity[potential.dense_node(r)];
+  return v;
 }
 
 // A block of solid particles in the unit box (dx = 0.1), cells [first, first + cells)^dim,
@@ -152,8 +183,7 @@ TYPED_TEST(SolidPotentialTest, DerivativesMatchFiniteDifferences) {
   for (Vec<dim>& v : block.nodes.velocity) v = testing::random_vector<dim>(rng, -1, 1);
   clamp_nodes_up_to<dim>(block, 2, testing::random_vector<dim>(rng, -1, 1));
   const Real dt = 1e-2;
-  const SolidIncrementalPotential<dim, TypeParam> potential(block.grid, block.particles, test_material<TypeParam>(),
-                                                            block.nodes, dt);
+  const Potential<dim> potential(block.grid, block.particles, material_of<TypeParam>(), block.nodes, dt);
   const int n = potential.unknowns();
   const Vector v = random_vector(rng, n, -1, 1);
   ASSERT_TRUE(std::isfinite(potential.energy(v)));
@@ -193,8 +223,7 @@ TYPED_TEST(SolidPotentialTest, ProjectedHessianIsSymmetricPositiveSemidefinite) 
   Block<dim> block = make_block<dim>(3, 3, rng, [](std::mt19937& r) {
     return Mat<dim>(random_rotation<dim>(r) * Real(0.6) * random_deformation<dim>(r));
   });
-  const SolidIncrementalPotential<dim, TypeParam> potential(block.grid, block.particles, test_material<TypeParam>(),
-                                                            block.nodes, /*dt=*/1e-2);
+  const Potential<dim> potential(block.grid, block.particles, material_of<TypeParam>(), block.nodes, /*dt=*/1e-2);
   const Vector v = random_vector(rng, potential.unknowns(), -0.5, 0.5);
   ASSERT_TRUE(std::isfinite(potential.energy(v)));
   const DenseMatrix mass = potential.mass_diagonal().asDiagonal();
@@ -231,8 +260,7 @@ TYPED_TEST(SolidPotentialTest, HessianProductsMatchTheAssembledHessian) {
     if (block.nodes.mass[k] > 0 && !block.nodes.clamped[k] && layout.multi_index(k)[1] <= 3)
       block.nodes.fixed_axes[k] = 1u << 1, ++held;
   ASSERT_GT(held, 0);
-  const SolidIncrementalPotential<dim, TypeParam> potential(block.grid, block.particles, test_material<TypeParam>(),
-                                                            block.nodes, /*dt=*/1e-2);
+  const Potential<dim> potential(block.grid, block.particles, material_of<TypeParam>(), block.nodes, /*dt=*/1e-2);
   const Vector v = random_vector(rng, potential.unknowns(), -0.5, 0.5);
   ASSERT_TRUE(std::isfinite(potential.energy(v)));
   for (bool project : {true, false}) {
@@ -250,23 +278,25 @@ TYPED_TEST(SolidPotentialTest, HessianProductsMatchTheAssembledHessian) {
 }
 
 // (d) Newton's local rate: a compressed block (F^n = 0.8 I, at rest) expands in one large
-// step. With the exact Hessian (project_hessian = false, which stays SPD here through the
-// mass) and CG tolerance ~ ||g_k||, ||g_{k+1}|| <= C ||g_k||^2 / ||g_0|| once ||g_k|| is
-// small. The projected default must converge too (at a rate the test does not assert).
+// step (solid_step, with the simulation's options but for the tolerances). With the exact
+// Hessian (project_hessian = false, which stays SPD here through the mass) and the
+// direction by LDL^T (2-D) or by CG to a tolerance ~ ||g_k|| (3-D),
+// ||g_{k+1}|| <= C ||g_k||^2 / ||g_0|| once ||g_k|| is small. The projected default must
+// converge too (at a rate the test does not assert).
 TYPED_TEST(SolidPotentialTest, NewtonConvergesQuadraticallyNearTheSolution) {
   constexpr int dim = DimOf<TypeParam>::value;
   std::mt19937 rng(99 + dim);
   Block<dim> block = make_block<dim>(3, 3, rng, [](std::mt19937&) { return Mat<dim>(Real(0.8) * Mat<dim>::Identity()); });
   const Real dt = 2e-2;
-  const SolidIncrementalPotential<dim, TypeParam> potential(block.grid, block.particles, test_material<TypeParam>(),
-                                                            block.nodes, dt);
-  ProjectedNewtonOptions options;
+  const Potential<dim> potential(block.grid, block.particles, material_of<TypeParam>(), block.nodes, dt);
+  ProjectedNewtonOptions options = newton_options<dim>();
   options.project_hessian = false;
   options.relative_tolerance = 1e-13;
   options.absolute_tolerance = 0;
   options.max_iterations = 30;
-  Vector v = potential.initial_velocity();
-  const NewtonResult exact = minimize_projected_newton(potential, v, options);
+  std::vector<Vec<dim>> velocity;
+  const NewtonResult exact = solid_step(block.grid, block.particles, material_of<TypeParam>(), block.nodes, dt, options, velocity);
+  const Vector v = unknowns_of(potential, velocity);
   const std::vector<Real>& g = exact.gradient_norms;
   const std::string message = "exact-Hessian Newton: " + exact.summary();
   std::cout << "[          ] " << message << '\n';
@@ -286,8 +316,9 @@ TYPED_TEST(SolidPotentialTest, NewtonConvergesQuadraticallyNearTheSolution) {
 
   options.project_hessian = true;
   options.relative_tolerance = 1e-8;
-  Vector w = potential.initial_velocity();
-  const NewtonResult projected = minimize_projected_newton(potential, w, options);
+  const NewtonResult projected =
+      solid_step(block.grid, block.particles, material_of<TypeParam>(), block.nodes, dt, options, velocity);
+  const Vector w = unknowns_of(potential, velocity);
   std::cout << "[          ] projected Newton: " << projected.summary() << '\n';
   EXPECT_TRUE(projected.converged) << projected.summary();
   EXPECT_LT((w - v).norm(), 1e-5 * v.norm()) << "projected and exact Newton found different minima";
@@ -304,9 +335,8 @@ TYPED_TEST(SolidStepTest, RigidTranslationCostsNoElasticEnergy) {
   constexpr int dim = TypeParam::value;
   std::mt19937 rng(31 + dim);
   Block<dim> block = make_block<dim>(3, 3, rng, random_deformation<dim>);
-  const auto material = FixedCorotated<dim>::from_young_poisson(1e5, 0.3);
-  const SolidIncrementalPotential<dim, FixedCorotated<dim>> deformed(block.grid, block.particles, material,
-                                                                     block.nodes, 1e-2);
+  const auto material = material_of<FixedCorotated<dim>>(1e5, 0.3);
+  const Potential<dim> deformed(block.grid, block.particles, material, block.nodes, 1e-2);
   const Vector v = random_vector(rng, deformed.unknowns(), -1, 1);
   const Vec<dim> shift = testing::random_vector<dim>(rng, -3, 3);
   const Vector shifted = v + shift.replicate(deformed.unknowns() / dim, 1);
@@ -318,7 +348,7 @@ TYPED_TEST(SolidStepTest, RigidTranslationCostsNoElasticEnergy) {
                                     translation);
   std::vector<Vec<dim>> velocity;
   const NewtonResult result =
-      solid_step(rest.grid, rest.particles, material, rest.nodes, /*dt=*/1e-2, ProjectedNewtonOptions{}, velocity);
+      solid_step(rest.grid, rest.particles, material, rest.nodes, /*dt=*/1e-2, newton_options<dim>(), velocity);
   EXPECT_TRUE(result.converged) << result.summary();
   EXPECT_LE(result.iterations, 1) << result.summary();
   for (std::size_t k = 0; k < velocity.size(); ++k) {
@@ -337,14 +367,13 @@ TYPED_TEST(SolidStepTest, ClampedNodesKeepTheirPrescribedVelocity) {
   const Vec<dim> prescribed = testing::random_vector<dim>(rng, -1, 1);
   const int clamped = clamp_nodes_up_to<dim>(block, 3, prescribed);
   ASSERT_GT(clamped, 0);
-  const auto material = NeoHookean<dim>::from_young_poisson(1e5, 0.3);
-  const SolidIncrementalPotential<dim, NeoHookean<dim>> potential(block.grid, block.particles, material, block.nodes,
-                                                                  1e-2);
+  const auto material = material_of<NeoHookean<dim>>(1e5, 0.3);
+  const Potential<dim> potential(block.grid, block.particles, material, block.nodes, 1e-2);
   EXPECT_EQ(potential.unknowns(), dim * (active_nodes(block) - clamped));
 
   std::vector<Vec<dim>> velocity;
   const NewtonResult result =
-      solid_step(block.grid, block.particles, material, block.nodes, 1e-2, ProjectedNewtonOptions{}, velocity);
+      solid_step(block.grid, block.particles, material, block.nodes, 1e-2, newton_options<dim>(), velocity);
   EXPECT_TRUE(result.converged) << result.summary();
   for (std::size_t k = 0; k < velocity.size(); ++k) {
     if (block.nodes.clamped[k]) {
@@ -359,7 +388,7 @@ TYPED_TEST(SolidStepTest, ClampedNodesKeepTheirPrescribedVelocity) {
                                     prescribed);
   clamp_nodes_up_to<dim>(rest, 3, prescribed);
   const NewtonResult rigid =
-      solid_step(rest.grid, rest.particles, material, rest.nodes, 1e-2, ProjectedNewtonOptions{}, velocity);
+      solid_step(rest.grid, rest.particles, material, rest.nodes, 1e-2, newton_options<dim>(), velocity);
   EXPECT_TRUE(rigid.converged) << rigid.summary();
   for (std::size_t k = 0; k < velocity.size(); ++k) {
     if (rest.nodes.mass[k] > 0) {
@@ -369,8 +398,9 @@ TYPED_TEST(SolidStepTest, ClampedNodesKeepTheirPrescribedVelocity) {
 }
 
 // (f) A block hanging from a clamped side, with v^n = dt g, converges in one large step
-// (dt = 2e-2, ten times dx / c_p = 0.1 / 46 m/s, the explicit limit before its safety factor), lowers the energy,
-// and the support slows the fall without reversing it.
+// (dt = 2e-2, ten times dx / c_p = 0.1 / 46 m/s, the explicit limit before its safety
+// factor), lowers the energy, and the support slows the fall without reversing it. The
+// step is solid_step with the simulation's options; the potential evaluates its v*.
 TYPED_TEST(SolidStepTest, ClampedBlockUnderGravityConverges) {
   constexpr int dim = TypeParam::value;
   std::mt19937 rng(11 + dim);
@@ -381,14 +411,14 @@ TYPED_TEST(SolidStepTest, ClampedBlockUnderGravityConverges) {
       2, 5, rng, [](std::mt19937&) { return Mat<dim>(Mat<dim>::Identity()); }, gravity_velocity);
   const int clamped = clamp_nodes_up_to<dim>(block, 2, Vec<dim>::Zero());
   ASSERT_GT(clamped, 0);
-  const auto material = NeoHookean<dim>::from_young_poisson(1e6, 0.4);
-  const SolidIncrementalPotential<dim, NeoHookean<dim>> potential(block.grid, block.particles, material, block.nodes,
-                                                                  dt);
-  Vector v = potential.initial_velocity();
-  const Real start_energy = potential.energy(v);
-  const NewtonResult result = minimize_projected_newton(potential, v, ProjectedNewtonOptions{});
+  const auto material = material_of<NeoHookean<dim>>(1e6, 0.4);
+  const Potential<dim> potential(block.grid, block.particles, material, block.nodes, dt);
+  const Real start_energy = potential.energy(potential.initial_velocity());
+  std::vector<Vec<dim>> velocity;
+  const NewtonResult result = solid_step(block.grid, block.particles, material, block.nodes, dt, newton_options<dim>(), velocity);
   std::cout << "[          ] " << result.summary() << '\n';
   ASSERT_TRUE(result.converged) << result.summary();
+  const Vector v = unknowns_of(potential, velocity);
   ASSERT_TRUE(v.allFinite());
   EXPECT_LT(result.iterations, 20) << result.summary();
   EXPECT_LT(potential.energy(v), start_energy);
@@ -405,7 +435,8 @@ TYPED_TEST(SolidStepTest, ClampedBlockUnderGravityConverges) {
 // A neo-Hookean block collapsing along the first axis so fast that v^n itself would invert
 // it (dt d_0 v_0^n = -1.5, F_00 = -0.5): E(v^n) is infinite, Newton starts from v = 0
 // (F = F^n) and its line search rejects every inverting trial; the step converges with
-// det F_p(v*) > 0.
+// det F_p(v*) > 0. The step is solid_step with the simulation's options; the potential
+// evaluates its start and its v*.
 TYPED_TEST(SolidStepTest, NeoHookeanStepRejectsInvertingTrials) {
   constexpr int dim = TypeParam::value;
   std::mt19937 rng(17 + dim);
@@ -415,12 +446,13 @@ TYPED_TEST(SolidStepTest, NeoHookeanStepRejectsInvertingTrials) {
   const Vec<dim> centre = Vec<dim>::Constant(0.45);
   for (int k = 0; k < layout.size(); ++k)
     block.nodes.velocity[k][0] = -(1.5 / dt) * (block.grid.dual_cell_centre(layout.multi_index(k))[0] - centre[0]);
-  const auto material = NeoHookean<dim>::from_young_poisson(1e5, 0.3);
-  const SolidIncrementalPotential<dim, NeoHookean<dim>> potential(block.grid, block.particles, material, block.nodes,
-                                                                  dt);
-  Vector v = potential.initial_velocity();
-  ASSERT_FALSE(std::isfinite(potential.energy(v))) << "test case too weak: v^n does not invert the block";
-  const NewtonResult result = minimize_projected_newton(potential, v, ProjectedNewtonOptions{});
+  const auto material = material_of<NeoHookean<dim>>(1e5, 0.3);
+  const Potential<dim> potential(block.grid, block.particles, material, block.nodes, dt);
+  ASSERT_FALSE(std::isfinite(potential.energy(potential.initial_velocity())))
+      << "test case too weak: v^n does not invert the block";
+  std::vector<Vec<dim>> velocity;
+  const NewtonResult result = solid_step(block.grid, block.particles, material, block.nodes, dt, newton_options<dim>(), velocity);
+  const Vector v = unknowns_of(potential, velocity);
   std::cout << "[          ] " << result.summary() << '\n';
   EXPECT_TRUE(result.started_from_zero);
   ASSERT_TRUE(result.converged) << result.summary();

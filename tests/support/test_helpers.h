@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <string>
+#include <vector>
 
 #include "core/types.h"
 #include "scene/scene.h"
@@ -31,6 +33,19 @@ Mat<dim> random_matrix(std::mt19937& rng, Real lo, Real hi) {
   for (int i = 0; i < dim; ++i)
     for (int j = 0; j < dim; ++j) m(i, j) = u(rng);
   return m;
+}
+
+// A point or vector of a scene document: (x, y) in 2-D, (x, y, z) in 3-D. The 3-D
+// instance of a typed test extends its 2-D scene along z this way.
+template <int dim>
+std::vector<Real> xyz(Real x, Real y, Real z) {
+  if constexpr (dim == 2) return {x, y};
+  else return {x, y, z};
+}
+
+// A box shape of a scene document.
+inline Json box(const std::vector<Real>& min, const std::vector<Real>& max) {
+  return {{"type", "box"}, {"min", min}, {"max", max}};
 }
 
 // A box of fluid in a closed box domain, as a scene document.

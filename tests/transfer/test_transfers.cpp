@@ -2,7 +2,7 @@
 // angular momentum including the affine part; P2G then G2P reproduces an affine field.
 // Both kernels: N1 on the corners (fluid) and N2 on the nodes (solid).
 #include "particles/particles.h"
-#include "test_helpers.h"
+#include "support/test_helpers.h"
 #include "transfer/apic.h"
 
 namespace iqmpm {

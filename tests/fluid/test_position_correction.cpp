@@ -4,7 +4,7 @@
 // -22 % without it; with relaxation 0.5 the drift measured -5.5 %. Margins: the
 // uncorrected run must show the problem (< -15 %), the corrected one stay within 10 %.
 #include "run/runner.h"
-#include "test_helpers.h"
+#include "support/test_helpers.h"
 
 namespace iqmpm {
 namespace {
@@ -12,7 +12,7 @@ namespace {
 double drift(const std::string& relaxation) {
   const std::string path = std::string(IQMPM_BENCHMARKS_DIR) + "/dam_break/dam_break.json";
   const RunResult result = run_scene(
-      load_scene(path, {"dx=0.009125", "end_time=0.6", "fluid.position_correction=" + relaxation}), {});
+      load_scene(path, {"dx=0.009125", "end_time=0.6", "experimental.position_correction=" + relaxation}), {});
   EXPECT_TRUE(result.ok) << result.summary["status"];
   return result.summary["particle_volume_drift"].get<double>();
 }

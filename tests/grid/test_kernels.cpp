@@ -2,7 +2,7 @@
 // exact reproduction of linear fields (sum w x_i = x, sum x_i grad w^T = I).
 #include "grid/grid.h"
 #include "grid/kernels.h"
-#include "test_helpers.h"
+#include "support/test_helpers.h"
 
 namespace iqmpm {
 namespace {

@@ -9,7 +9,7 @@
 
 #include "core/errors.h"
 #include "run/runner.h"
-#include "test_helpers.h"
+#include "support/test_helpers.h"
 
 namespace iqmpm {
 namespace {

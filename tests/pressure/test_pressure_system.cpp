@@ -2,12 +2,17 @@
 // matrix is symmetric positive semi-definite; after the solve the recovered velocity is
 // discretely divergence-free (G^fT v = 0) and satisfies the wall constraint B v = b to the
 // solver tolerance; the projection does not add kinetic energy; PCG and CHOLMOD agree.
+// The coupled system (interface and ghost-matrix blocks, and the bordered system of the
+// solid's stiffness) satisfies its constraints after the solve.
 #include <Eigen/Dense>
 
+#include "diagnostics/measurements.h"
 #include "linear_solver/linear_solver.h"
 #include "pressure/pressure_system.h"
 #include "simulation/simulation.h"
-#include "test_helpers.h"
+#include "support/run_helpers.h"
+#include "support/scenes.h"
+#include "support/test_helpers.h"
 
 namespace iqmpm {
 namespace {
@@ -85,6 +90,63 @@ TYPED_TEST(PressureSystemTest, PcgAndCholmodAgree) {
   ASSERT_EQ(a.size(), b.size());
   EXPECT_LE((a - b).norm(), 1e-8 * a.norm());
   EXPECT_GT(iterative.last_step().linear.iterations, 0);
+}
+// Coupled system (method.md §5) on the submerged block after one step: the assembled matrix
+// is symmetric, it holds the h block, and the recovered velocities satisfy every
+// constraint row (incompressibility, walls, the interface's normal-velocity jump) to the
+// direct solver's precision (auto is LDL^T in 2-D; named in 3-D, where auto is CG). This
+// checks the algebra of the coupling; the physics of the benchmark is still open (issue #4
+// notes: leakage through the per-cell constraint). With experimental.solid_response =
+// stiffness the solid's velocities are unknowns of a bordered system (pressure_system.h);
+// the same constraints must hold. Typed over the dimension and the solid's response.
+template <int d, bool stiffness_response>
+struct CoupledCase {
+  static constexpr int dim = d;
+  static constexpr bool stiffness = stiffness_response;
+};
+using CoupledCases = ::testing::Types<CoupledCase<2, false>, CoupledCase<2, true>, CoupledCase<3, false>, CoupledCase<3, true>>;
+struct CoupledCaseNames {
+  template <class Case>
+  static std::string GetName(int) {
+    return std::string(Case::stiffness ? "Stiffness" : "Mass") + std::to_string(Case::dim);
+  }
+};
+template <class Case>
+class CoupledSystemTest : public ::testing::Test {
+ protected:
+  const testing::OneThread one_thread_;  // 3-D: as the coupled runs (run_helpers.h)
+};
+TYPED_TEST_SUITE(CoupledSystemTest, CoupledCases, CoupledCaseNames);
+
+TYPED_TEST(CoupledSystemTest, ConstraintsHoldAfterTheSolve) {
+  constexpr int dim = TypeParam::dim;
+  std::vector<std::string> overrides = {std::string("experimental.solid_response=\"") +
+                                        (TypeParam::stiffness ? "stiffness" : "mass") + "\""};
+  if (dim == 3) overrides.push_back("solver.method=\"ldlt\"");
+  Simulation<dim> sim(read_scene(testing::submerged_block_document<dim>("submerged_block.json", overrides)));
+  sim.step(0.005);
+  ASSERT_EQ(sim.pressure_system().has_mass_block(), TypeParam::stiffness);
+  ASSERT_GT(sim.interface_points(), 0);
+  const PressureSystem& system = sim.pressure_system();
+  const auto* h = system.find("h");
+  const auto* pf = system.find("p_f");
+  ASSERT_NE(h, nullptr);
+  ASSERT_NE(pf, nullptr);
+  const SparseMatrix& A = system.matrix();
+  EXPECT_LT((A - SparseMatrix(A.transpose())).norm(), 1e-12 * A.norm());
+  const Eigen::VectorXd v = sim.grid_velocity_after_projection();
+  const Eigen::VectorXd dv = system.constraint() * v;  // D v^{n+1}: zero on p_f, y and h rows
+  const Eigen::VectorXd d_star = system.constraint() * sim.grid_velocity_before_projection();
+  EXPECT_LT(dv.segment(h->offset, h->size).norm(), 1e-8 * d_star.norm());
+  EXPECT_LT(dv.segment(pf->offset, pf->size).norm(), 1e-8 * d_star.norm());
+  // The fluid pushes the block up (buoyancy, 196.2 N/m in 2-D): the sign and rough size of
+  // the force, and nothing sideways (a symmetric set-up).
+  const Vec<dim> force = body_interface_force(sim, 0);
+  EXPECT_GT(force[1], 0.5 * 1000 * 9.81 * testing::submerged_block_volume<dim>());
+  for (int a = 0; a < dim; ++a)
+    if (a != 1) {
+      EXPECT_NEAR(force[a], 0, 1e-6) << "axis " << a;
+    }
 }
 
 }  // namespace
@@ -164,67 +226,6 @@ TEST(BorderedPressureSystemTest, EqualsThePressureOnlySystemWithTheInverseOfH) {
   EXPECT_LT((v_b - lumped.corrected_velocity(v_star, lambda_m)).norm(), 1e-10 * v_b.norm());
   // The stiffer solid moves less under the same constraints: a different solution.
   EXPECT_GT((lambda_h - lambda_m).norm(), 1e-3 * lambda_m.norm());
-}
-
-// The active set's rounds (coupling.interface = unilateral) change a few rows of the
-// system: released rows become unit rows and columns, restored ones get their entries
-// back. The LDL^T solver then modifies its factorisation row by row (linear_solver.cpp)
-// instead of factorising again. Its solution must equal a fresh factorisation's, on the
-// positive definite system and on the quasi-definite bordered one, over several rounds.
-TEST(RowModifiedLdltTest, EqualsAFreshFactorisationOverActiveSetRounds) {
-  for (const bool bordered : {false, true}) {
-    SCOPED_TRACE(bordered ? "bordered (quasi-definite)" : "positive definite");
-    std::mt19937 rng(11);
-    std::uniform_real_distribution<Real> uniform(-1, 1);
-    const int velocities = 120, rows = 50;
-    Eigen::VectorXd inverse_mass(velocities), v_star(velocities);
-    for (int k = 0; k < velocities; ++k) inverse_mass[k] = 1 / (1 + 0.5 * (1 + uniform(rng))), v_star[k] = uniform(rng);
-    std::vector<Eigen::Triplet<Real>> entries;
-    for (int r = 0; r < rows; ++r)
-      for (int k = 0; k < velocities; ++k)
-        if (uniform(rng) > 0.9) entries.emplace_back(r, k, uniform(rng));
-    PressureSystem system;
-    system.reset(inverse_mass);
-    system.add_block("rows", rows, entries);
-    if (bordered) {
-      const std::vector<int> columns = {3, 4, 5, 40, 41, 77};
-      const int nb = int(columns.size());
-      const Eigen::MatrixXd R = Eigen::MatrixXd::NullaryExpr(nb, nb, [&] { return uniform(rng); });
-      system.set_mass_block(columns, Eigen::MatrixXd(R * R.transpose() + 2 * Eigen::MatrixXd::Identity(nb, nb)).sparseView());
-    }
-    system.assemble(0.01);
-    auto solver = make_linear_solver(LinearSolverOptions{LinearSolverMethod::ldlt}, system.size(), 2);
-    std::vector<std::uint8_t> released(rows, 0);
-    const std::vector<std::vector<int>> rounds = {{2, 9, 17, 30}, {9, 31, 44}, {2, 5, 6, 7, 31}, {}};
-    for (std::size_t round = 0; round < rounds.size(); ++round) {
-      std::vector<int> newly_released, restored;
-      std::vector<std::uint8_t> next(rows, 0);
-      for (int r : rounds[round]) next[r] = 1;
-      for (int r = 0; r < rows; ++r) {
-        if (next[r] && !released[r]) newly_released.push_back(r);
-        if (!next[r] && released[r]) restored.push_back(r);
-      }
-      released = next;
-      system.release(released);
-      if (round > 0) solver->expect_row_changes(newly_released, restored);
-      const SparseMatrix& K = system.matrix();
-      const Eigen::VectorXd b = system.rhs(v_star);
-      Eigen::VectorXd x = Eigen::VectorXd::Zero(system.size()), fresh = x;
-      const auto stats = solver->solve(K, b, x);
-      const auto fresh_stats = make_linear_solver(LinearSolverOptions{LinearSolverMethod::ldlt}, system.size(), 2)->solve(K, b, fresh);
-      ASSERT_TRUE(stats.converged && fresh_stats.converged);
-      // Round 0 factorises; the later ones modify exactly the changed rows.
-      EXPECT_EQ(stats.modified_rows, round == 0 ? 0 : int(newly_released.size() + restored.size()));
-      EXPECT_LT(stats.relative_residual, 1e-12);
-      EXPECT_LT((x - fresh).norm(), 1e-10 * fresh.norm());
-      const Eigen::VectorXd dense = Eigen::MatrixXd(K).ldlt().solve(b);  // independent of CHOLMOD
-      EXPECT_LT((x - dense).norm(), 1e-9 * dense.norm());
-      for (int r = 0; r < rows; ++r)
-        if (released[r]) {
-          EXPECT_EQ(x[r], 0);
-        }
-    }
-  }
 }
 
 }  // namespace

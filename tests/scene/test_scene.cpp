@@ -1,0 +1,205 @@
+// Scene validation: an unknown key, a wrong type or an out-of-range value is rejected with
+// an InputError naming the key path and what is accepted; --set overrides reach any key.
+#include "core/errors.h"
+#include "support/test_helpers.h"
+
+namespace iqmpm {
+namespace {
+
+
+// Expects read_scene to throw an InputError whose message contains every fragment.
+void expect_rejected(const Json& doc, const std::vector<std::string>& fragments) {
+  try {
+    read_scene(doc);
+    ADD_FAILURE() << "scene was accepted: " << doc.dump();
+  } catch (const InputError& error) {
+    for (const auto& fragment : fragments)
+      EXPECT_NE(std::string(error.what()).find(fragment), std::string::npos) << error.what() << "\n  lacks: " << fragment;
+  }
+}
+
+// The reader is one for both dimensions (the scene's "dim"); vectors have dim entries.
+template <class D>
+class SceneTest : public ::testing::Test {
+ protected:
+  static constexpr int dim = D::value;
+  static Json valid_scene() { return testing::fluid_box_scene(dim, 0.1, std::vector<Real>(dim, 0.5), std::vector<Real>(dim, 1.0)); }
+};
+TYPED_TEST_SUITE(SceneTest, testing::Dimensions);
+
+TYPED_TEST(SceneTest, ValidSceneFillsDefaults) {
+  constexpr int dim = TestFixture::dim;
+  Json doc = this->valid_scene();
+  doc.erase("gravity");
+  const SceneSpec scene = read_scene(doc);
+  EXPECT_EQ(scene.dim, dim);
+  EXPECT_EQ(scene.gravity, testing::xyz<dim>(0, -9.81, 0));
+  EXPECT_DOUBLE_EQ(scene.cfl, 0.5);
+  EXPECT_DOUBLE_EQ(scene.fluid.density, 1000);
+  EXPECT_TRUE(scene.slip_walls[0][0]);
+  EXPECT_EQ(scene.solver.method, LinearSolverMethod::automatic);
+}
+
+TYPED_TEST(SceneTest, UnknownKeyIsNamedWithAcceptedKeys) {
+  Json doc = this->valid_scene();
+  doc["fluid"]["densty"] = 1000;
+  expect_rejected(doc, {"unknown scene key 'fluid.densty'", "density"});
+}
+
+TYPED_TEST(SceneTest, WrongTypeIsNamed) {
+  Json doc = this->valid_scene();
+  doc["end_time"] = "long";
+  expect_rejected(doc, {"'end_time'", "expected a number", "a string"});
+}
+
+TYPED_TEST(SceneTest, OutOfRangeValueIsNamedWithRange) {
+  Json doc = this->valid_scene();
+  doc["cfl"] = 1.5;
+  expect_rejected(doc, {"'cfl' = 1.5", "> 0 and <= 1"});
+}
+
+TYPED_TEST(SceneTest, WrongVectorLengthIsNamed) {
+  Json doc = this->valid_scene();
+  constexpr int dim = TestFixture::dim;
+  doc["fluid"]["shapes"][0]["max"] = std::vector<Real>(dim + 1, 0.5);
+  expect_rejected(doc, {"fluid.shapes[0].max", "array of " + std::to_string(dim) + " numbers"});
+}
+
+TYPED_TEST(SceneTest, UnknownChoiceListsAcceptedValues) {
+  Json doc = this->valid_scene();
+  doc["walls"] = {{"x-", "sticky"}};
+  expect_rejected(doc, {"walls.x-", "slip, none"});
+}
+
+TYPED_TEST(SceneTest, SpacingMustDivideTheDomain) {
+  Json doc = this->valid_scene();
+  doc["dx"] = 0.3;
+  expect_rejected(doc, {"'dx'", "whole number"});
+}
+
+TYPED_TEST(SceneTest, MissingRequiredKeyIsNamed) {
+  Json doc = this->valid_scene();
+  doc.erase("end_time");
+  expect_rejected(doc, {"'end_time' is required"});
+}
+
+TYPED_TEST(SceneTest, DuplicateProbeNamesAreRejected) {
+  Json doc = this->valid_scene();
+  doc["probes"] = Json::array({{{"type", "max_speed"}}, {{"type", "max_speed"}}});
+  expect_rejected(doc, {"probes[1].name", "max_speed"});
+}
+
+TYPED_TEST(SceneTest, OverridesReachNestedKeysAndArrays) {
+  Json doc = this->valid_scene();
+  apply_override(doc, "dx=0.05");
+  apply_override(doc, "solver.method=pcg");
+  apply_override(doc, TestFixture::dim == 2 ? "fluid.shapes.0.max=[0.4,0.3]" : "fluid.shapes.0.max=[0.4,0.3,0.4]");
+  const SceneSpec scene = read_scene(doc);
+  EXPECT_DOUBLE_EQ(scene.dx, 0.05);
+  EXPECT_EQ(scene.solver.method, LinearSolverMethod::pcg);
+  EXPECT_DOUBLE_EQ(scene.fluid.shapes[0].max[1], 0.3);
+  EXPECT_THROW(apply_override(doc, "fluid.shapes.3.max=[1,1]"), InputError);
+  EXPECT_THROW(apply_override(doc, "novalue"), InputError);
+}
+
+TEST(SceneTest, EveryKeyIsDocumented) {
+  const auto docs = document_scene_keys();
+  auto documented = [&](const std::string& path) {
+    for (const auto& d : docs)
+      if (d.path == path) return !d.meaning.empty();
+    return false;
+  };
+  for (const char* path : {"dx", "cfl", "fluid.density", "solver.method", "walls.x-", "probes[].type", "fluid.shapes[].radius"})
+    EXPECT_TRUE(documented(path)) << path;
+}
+
+}  // namespace
+}  // namespace iqmpm
+
+namespace iqmpm {
+namespace {
+
+template <class D>
+class SceneSolidTest : public ::testing::Test {
+ protected:
+  static constexpr int dim = D::value;
+  static Json solid_scene() {
+    using testing::xyz;
+    return {{"dim", dim},
+            {"domain", {{"min", xyz<dim>(0, 0, 0)}, {"max", xyz<dim>(1, 1, 1)}}},
+            {"dx", 0.1},
+            {"end_time", 1.0},
+            {"solids", Json::array({{{"youngs_modulus", 1e6}, {"poisson_ratio", 0.3},
+                                     {"shapes", Json::array({testing::box(xyz<dim>(0.2, 0.2, 0.2), xyz<dim>(0.4, 0.4, 0.4))})}}})}};
+  }
+};
+TYPED_TEST_SUITE(SceneSolidTest, testing::Dimensions);
+
+TYPED_TEST(SceneSolidTest, SolidOnlySceneIsValidWithDefaults) {
+  const SceneSpec scene = read_scene(this->solid_scene());
+  ASSERT_EQ(scene.solids.size(), 1u);
+  EXPECT_EQ(scene.solids[0].name, "solid0");
+  EXPECT_EQ(scene.solids[0].model, SolidModel::fixed_corotated);
+  EXPECT_NEAR(scene.solids[0].mu, 1e6 / 2.6, 1e-6);
+  EXPECT_NEAR(scene.solids[0].lambda, 1e6 * 0.3 / (1.3 * 0.4), 1e-6);
+  EXPECT_DOUBLE_EQ(scene.solids[0].ghost_stiffness, 1e5);
+  EXPECT_TRUE(scene.fluid.shapes.empty());
+}
+
+TYPED_TEST(SceneSolidTest, ElasticConstantsAreOnePairOnly) {
+  Json doc = this->solid_scene();
+  doc["solids"][0]["mu"] = 1e5;
+  expect_rejected(doc, {"'solids[0]'", "youngs_modulus and poisson_ratio, or mu and lambda"});
+  doc = this->solid_scene();
+  doc["solids"][0].erase("youngs_modulus");
+  doc["solids"][0].erase("poisson_ratio");
+  expect_rejected(doc, {"'solids[0]'", "exactly one pair"});
+}
+
+TYPED_TEST(SceneSolidTest, IncompressiblePoissonRatioIsRejected) {
+  Json doc = this->solid_scene();
+  doc["solids"][0]["poisson_ratio"] = 0.5;
+  expect_rejected(doc, {"'solids[0].poisson_ratio' = 0.5", "< 0.5"});
+}
+
+// Rules that join options are the scene reader's, found before anything runs or is written.
+TYPED_TEST(SceneSolidTest, CrossOptionRulesAreCheckedWhenReading) {
+  Json doc = this->solid_scene();
+  doc["solids"][0]["initial_pressure"] = "hydrostatic";  // a solid-only scene has no water
+  expect_rejected(doc, {"'solids[0].initial_pressure' = \"hydrostatic\"", "needs fluid", "\"zero\""});
+  doc = this->solid_scene();
+  doc["experimental"] = {{"solid_response", "stiffness"}};
+  doc["solver"] = {{"method", "pcg"}};
+  expect_rejected(doc, {"'experimental.solid_response' = \"stiffness\"", "ldlt"});
+  doc["solver"] = {{"method", "ldlt"}};
+  EXPECT_EQ(read_scene(doc).experimental.solid_response, SolidResponse::stiffness);
+  doc = this->solid_scene();
+  doc["end_time"] = 1e-300;
+  expect_rejected(doc, {"'end_time'", "dt_min"});
+}
+
+TYPED_TEST(SceneSolidTest, UnknownModelAndMissingShapesAreNamed) {
+  Json doc = this->solid_scene();
+  doc["solids"][0]["model"] = "mooney";
+  expect_rejected(doc, {"'solids[0].model'", "fixed_corotated, neo_hookean"});
+  doc = this->solid_scene();
+  doc["solids"][0].erase("shapes");
+  expect_rejected(doc, {"'solids[0].shapes'", "at least one shape"});
+}
+
+TYPED_TEST(SceneSolidTest, DuplicateSolidNamesAreRejected) {
+  Json doc = this->solid_scene();
+  doc["solids"].push_back(doc["solids"][0]);
+  doc["solids"][0]["name"] = "gate";
+  doc["solids"][1]["name"] = "gate";
+  expect_rejected(doc, {"'solids[1].name' = \"gate\"", "solids[0]"});
+}
+
+TYPED_TEST(SceneSolidTest, NoMaterialAtAllIsRejected) {
+  Json doc = this->solid_scene();
+  doc.erase("solids");
+  expect_rejected(doc, {"no material"});
+}
+
+}  // namespace
+}  // namespace iqmpm
