@@ -33,14 +33,13 @@ fails ``compare validate``, and ``not checked`` never counts as a pass.
 
 from __future__ import annotations
 
-import json
 import math
 import re
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
-from compare.io import CompareError, Run, read_run
+from compare.io import CompareError, Run, read_json_object, read_run
 from compare.registry import Benchmark, CsvReference, MetricSpec, ScalarSpec, lookup
 
 EXPECTED_FILE = "expected.json"
@@ -195,14 +194,7 @@ def read_expected(path: Path, scene_names: Sequence[str] | None = None) -> dict[
     """Checks of one ``expected.json``, by benchmark name. ``scene_names``: the scene stems
     of its folder (each key must be one of them when given)."""
     path = Path(path)
-    try:
-        data = json.loads(path.read_text())
-    except OSError as exc:
-        raise CompareError(f"cannot read {path}: {exc.strerror or exc}") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise CompareError(f"{path}: not valid JSON ({exc})") from None
-    if not isinstance(data, dict):
-        raise CompareError(f"{path}: expected an object keyed by benchmark name")
+    data = read_json_object(path, "an object keyed by benchmark name")
     out: dict[str, list[Check]] = {}
     for name, checks in data.items():
         if scene_names is not None and name not in scene_names:

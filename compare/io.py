@@ -168,20 +168,25 @@ def read_metrics(path: Path) -> Metrics:
 # --------------------------------------------------------------------------- summary.json
 
 
-def read_summary(path: Path) -> dict[str, Any]:
-    """Read ``summary.json`` (or the one inside a run folder)."""
-    path = Path(path)
-    if path.is_dir():
-        path = path / "summary.json"
+def read_json_object(path: Path, what: str = "a JSON object at top level") -> dict[str, Any]:
+    """A JSON file whose top level is an object; CompareError names the file otherwise."""
     try:
-        data = json.loads(path.read_text())
+        data = json.loads(Path(path).read_text())
     except OSError as exc:
         raise CompareError(f"cannot read {path}: {exc.strerror or exc}") from None
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise CompareError(f"{path}: not valid JSON ({exc})") from None
     if not isinstance(data, dict):
-        raise CompareError(f"{path}: expected a JSON object at top level")
+        raise CompareError(f"{path}: expected {what}")
     return data
+
+
+def read_summary(path: Path) -> dict[str, Any]:
+    """Read ``summary.json`` (or the one inside a run folder)."""
+    path = Path(path)
+    if path.is_dir():
+        path = path / "summary.json"
+    return read_json_object(path)
 
 
 def summary_ok(summary: dict[str, Any]) -> bool:
