@@ -103,6 +103,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> overrides;
   int threads = 0;
   bool quiet = false;
+  std::vector<long> dump_steps;
 
   auto* run = app.add_subcommand("run", "run a scene to its end time, writing frames, metrics.csv and summary.json");
   run->add_option("scene", scene_path, "scene file (JSON); `iqmpm keys` lists every key")->required()->check(CLI::ExistingFile);
@@ -110,6 +111,10 @@ int main(int argc, char** argv) {
   run->add_option("--set,-s", overrides, "override a scene key, e.g. --set dx=0.002 --set solver.method=pcg (repeatable)");
   run->add_option("--threads,-j", threads, "OpenMP threads (0: all cores; at most 1024)")->check(CLI::Range(0, 1024))->capture_default_str();
   run->add_flag("--quiet,-q", quiet, "no progress output");
+  run->add_option("--dump-system", dump_steps,
+                  "write the pressure system of these steps (1-based) to the output folder: system_stepN.mtx (Matrix Market), "
+                  "rhs_stepN.mtx and layout_stepN.json (blocks, dual cell of each unknown), for benchmarks/solvers")
+      ->check(CLI::PositiveNumber)->delimiter(',');
 
   auto* check = app.add_subcommand("check", "validate a scene file (and --set overrides) without running it");
   check->add_option("scene", scene_path, "scene file (JSON)")->required()->check(CLI::ExistingFile);
@@ -157,6 +162,7 @@ int main(int argc, char** argv) {
     ProgressReporter progress(quiet);
     RunOptions options;
     options.out_dir = out_dir;
+    options.dump_steps = dump_steps;
     options.on_progress = [&](const RunProgress& p) { progress(p); };
     const RunResult result = run_scene(scene, options);
     if (!quiet) print_stage_table(result.summary);

@@ -109,17 +109,10 @@ Vec<dim> body_interface_force(const Simulation<dim>& sim, int body) {
   return interface_force(sim, [&](std::size_t p) { return sim.solid().body[p] == body; });
 }
 
-// Force of the fluid on a domain wall along its axis, from the wall multipliers:
-// sum_k y_k |face_k| n_k (n: the outward normal of the fluid).
+// Force of the fluid on a domain wall along its axis (Simulation::wall_force).
 template <int dim>
 Real wall_force(const Simulation<dim>& sim, int axis, int side) {
-  const Real face_area = sim.grid().cell_volume() / sim.grid().dx;
-  const auto& faces = sim.fluid_operators().wall_faces;
-  Real force = 0;
-  for (std::size_t f = 0; f < faces.size(); ++f)
-    if (faces[f].wall.axis == axis && faces[f].wall.side == side)
-      force += sim.wall_multiplier(int(f)) * face_area * (side == 0 ? -1 : 1);
-  return force;
+  return sim.wall_force(axis, side);
 }
 
 // A dual-cell value at each particle (0 outside the domain).

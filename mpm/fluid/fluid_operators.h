@@ -44,6 +44,9 @@ struct FluidOperators {
   std::vector<WallFace<dim>> wall_faces;
   std::vector<Triplet> gradient_transpose;  // rows: pressure unknowns; columns: velocity components
   std::vector<Triplet> wall_rows;           // rows: wall faces; columns: velocity components
+  // Per velocity dof: bit 2 axis + side is set when the corner lies on that slip wall
+  // (fluid.wall_constraint = corners holds that component; docs/method.md#walls-on-corners).
+  std::vector<std::uint8_t> on_wall;
   // G^fT entries of corners that are not fluid unknowns because they lie inside a solid
   // (interface quadrature without interior fluid corners): (row, corner, coefficients).
   struct CornerEntry {
@@ -187,6 +190,14 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
     }
   ops.mass.resize(ops.velocity_dofs());
   for (int d = 0; d < ops.velocity_dofs(); ++d) ops.mass[d] = corner_mass[ops.corner_of_dof[d]];
+  ops.on_wall.assign(ops.velocity_dofs(), 0);
+  for (int d = 0; d < ops.velocity_dofs(); ++d) {
+    const IVec<dim> corner = corners.multi_index(ops.corner_of_dof[d]);
+    for (int axis = 0; axis < dim; ++axis) {
+      if (slip[axis][0] && corner[axis] == 0) ops.on_wall[d] |= std::uint8_t(1u << (2 * axis));
+      if (slip[axis][1] && corner[axis] == grid.cells[axis]) ops.on_wall[d] |= std::uint8_t(1u << (2 * axis + 1));
+    }
+  }
 
   // G^fT rows: -(sum over quadrature of V grad N1_c) for the corners c of the cell.
   ops.gradient_transpose.reserve(std::size_t(np) * (1 << dim) * dim);

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/errors.h"
+#include "linear_solver/incomplete_cholesky.h"
 #include "linear_solver/pcg.h"
 
 namespace iqmpm {
@@ -22,7 +23,14 @@ class PcgSolver final : public LinearSolver {
  public:
   explicit PcgSolver(const LinearSolverOptions& options) : options_(options) {}
   bool solves_quasi_definite() const override { return false; }
-  std::string name() const override { return options_.preconditioner == Preconditioner::jacobi ? "pcg-jacobi" : "pcg-ichol"; }
+  std::string name() const override {
+    switch (options_.preconditioner) {
+      case Preconditioner::ic0: return "pcg-ic0";
+      case Preconditioner::ichol: return "pcg-ichol";
+      case Preconditioner::jacobi: break;
+    }
+    return "pcg-jacobi";
+  }
   LinearSolverKind kind() const override { return LinearSolverKind::pcg; }
 
   LinearSolveStats solve(const Sparse& A, const Eigen::VectorXd& b, Eigen::VectorXd& x) override {
@@ -30,28 +38,34 @@ class PcgSolver final : public LinearSolver {
     stats.method = name();
     const int n = int(b.size());
     if (x.size() != n || !options_.warm_start) x = Eigen::VectorXd::Zero(n);
-    const bool jacobi = options_.preconditioner == Preconditioner::jacobi;
     Eigen::VectorXd inverse_diagonal;
+    IncompleteCholesky0 ic0;
     // Eigen's incomplete Cholesky with threshold fill (Lin & More), AMD ordering and an
-    // automatic diagonal shift on breakdown: the Q1-P0 stencil is not an M-matrix, and a
-    // plain MIC(0) on it breaks down in 3-D.
+    // automatic diagonal shift on breakdown.
     Eigen::IncompleteCholesky<Real, Eigen::Lower, Eigen::AMDOrdering<int>> ichol;
     if (b.norm() > 0) {
-      if (jacobi) {
-        inverse_diagonal = A.diagonal().cwiseInverse();
-      } else {
-        ichol.setInitialShift(1e-3);
-        ichol.compute(A);
-        if (ichol.info() != Eigen::Success) throw NumericalFailure("incomplete Cholesky factorisation failed");
+      switch (options_.preconditioner) {
+        case Preconditioner::jacobi: inverse_diagonal = A.diagonal().cwiseInverse(); break;
+        case Preconditioner::ic0:
+          if (!ic0.compute(A)) throw NumericalFailure("IC(0) factorisation failed even with a diagonal shift of 1 x diag(A)");
+          break;
+        case Preconditioner::ichol:
+          ichol.setInitialShift(1e-3);
+          ichol.compute(A);
+          if (ichol.info() != Eigen::Success) throw NumericalFailure("incomplete Cholesky factorisation failed");
+          break;
       }
     }
+    // A is symmetric: A^T p is the row-major product, which Eigen runs on the OpenMP
+    // threads (dynamic schedule).
     const PcgResult result = preconditioned_cg(
-        [&](const Eigen::VectorXd& p) -> Eigen::VectorXd { return A * p; },
+        [&](const Eigen::VectorXd& p) -> Eigen::VectorXd { return A.transpose() * p; },
         [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) {
-          if (jacobi)
-            z = inverse_diagonal.cwiseProduct(r);
-          else
-            z = ichol.solve(r);
+          switch (options_.preconditioner) {
+            case Preconditioner::jacobi: z = inverse_diagonal.cwiseProduct(r); break;
+            case Preconditioner::ic0: ic0.solve(r, z); break;
+            case Preconditioner::ichol: z = ichol.solve(r); break;
+          }
         },
         b, x, options_.tolerance, options_.max_iterations);
     stats.iterations = result.iterations;
@@ -158,11 +172,14 @@ class DirectSolver final : public LinearSolver {
 // gate's solve stage 12.8 -> 7.4 s.
 class UpdatableLdlSolver final : public LinearSolver {
  public:
-  UpdatableLdlSolver() {
+  explicit UpdatableLdlSolver(bool simplicial) {
     cholmod_start(&common_);
     common_.nmethods = 1;
     common_.method[0].ordering = CHOLMOD_AMD;
-    common_.supernodal = CHOLMOD_SIMPLICIAL;
+    // CHOLMOD_AUTO: supernodal (LL^T, BLAS-3) where the factor is dense enough, which on the
+    // dam break at a/128 (33k unknowns, 1.2M entries in L) halves the factorisation with
+    // OpenBLAS; simplicial LDL^T where rows are modified or the system is quasi-definite.
+    common_.supernodal = simplicial ? CHOLMOD_SIMPLICIAL : CHOLMOD_AUTO;
     common_.final_ll = false;
     common_.print = 0;
     common_.error_handler = nullptr;
@@ -177,6 +194,7 @@ class UpdatableLdlSolver final : public LinearSolver {
   bool solves_quasi_definite() const override { return true; }
   std::string name() const override { return "ldlt"; }
   LinearSolverKind kind() const override { return LinearSolverKind::ldlt; }
+  void suggest_order(std::vector<int> order) override { order_ = std::move(order); }
   void expect_row_changes(std::vector<int> released, std::vector<int> restored) override {
     released_ = std::move(released);
     restored_ = std::move(restored);
@@ -224,6 +242,7 @@ class UpdatableLdlSolver final : public LinearSolver {
   std::vector<int> permuted_;  // original index -> row of L
   std::vector<int> released_, restored_;
   bool changes_pending_ = false;
+  std::vector<int> order_;  // suggest_order(); empty: AMD
 
   // A view of the upper triangle of A (stored in full; stype > 0 spares CHOLMOD a transpose).
   static cholmod_sparse view(const Sparse& A) {
@@ -245,7 +264,9 @@ class UpdatableLdlSolver final : public LinearSolver {
   void analyse(const Sparse& A) {
     if (factor_) cholmod_free_factor(&factor_, &common_);
     cholmod_sparse s = view(A);
-    factor_ = cholmod_analyze(&s, &common_);
+    const bool given = order_.size() == std::size_t(A.rows());
+    common_.method[0].ordering = given ? CHOLMOD_GIVEN : CHOLMOD_AMD;
+    factor_ = cholmod_analyze_p(&s, given ? order_.data() : nullptr, nullptr, 0, &common_);
     if (!factor_) throw NumericalFailure("CHOLMOD could not analyse the pressure system (out of memory?)");
     pattern_.remember(A);
     const int* perm = static_cast<const int*>(factor_->Perm);
@@ -266,6 +287,7 @@ class UpdatableLdlSolver final : public LinearSolver {
   // column in the rows already present (and its diagonal); the entries towards restored
   // rows still to come are added with those rows. Indices are L's (permuted) ones.
   bool modify_rows(const Sparse& A) {
+    if (factor_->is_super) return false;  // CHOLMOD modifies simplicial LDL^T factors only
     for (int k : released_)
       if (!cholmod_rowdel(permuted_[k], nullptr, factor_, &common_)) return factor_valid_ = false;
     std::vector<std::uint8_t> to_come(A.rows(), 0);
@@ -329,7 +351,7 @@ LinearSolverKind linear_solver_kind(const LinearSolverOptions& options, int unkn
 std::unique_ptr<LinearSolver> make_linear_solver(const LinearSolverOptions& options, int unknowns, int dim) {
   switch (linear_solver_kind(options, unknowns, dim)) {
     case LinearSolverKind::cholmod: return std::make_unique<DirectSolver<Eigen::CholmodDecomposition<Sparse, Eigen::Lower>>>("cholmod");
-    case LinearSolverKind::ldlt: return std::make_unique<UpdatableLdlSolver>();
+    case LinearSolverKind::ldlt: return std::make_unique<UpdatableLdlSolver>(options.simplicial);
     case LinearSolverKind::pcg: break;
   }
   return std::make_unique<PcgSolver>(options);

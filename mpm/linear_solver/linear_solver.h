@@ -12,16 +12,24 @@
 namespace iqmpm {
 
 enum class LinearSolverMethod { automatic, pcg, cholmod, ldlt };
-enum class Preconditioner { ichol, jacobi };
+enum class Preconditioner { ic0, ichol, jacobi };
+// The fill-reducing order of a direct solve: the grid's nested dissection, fixed for the
+// run (grid/nested_dissection.h), or AMD on each new pattern.
+enum class DirectOrdering { grid, amd };
 // What make_linear_solver makes for a given system (automatic resolved).
 enum class LinearSolverKind { pcg, cholmod, ldlt };
 
 struct LinearSolverOptions {
   LinearSolverMethod method = LinearSolverMethod::automatic;
-  Preconditioner preconditioner = Preconditioner::ichol;  // pcg only
+  Preconditioner preconditioner = Preconditioner::ic0;  // pcg only
   Real tolerance = 1e-8;                // relative residual ||b - A x|| / ||b||
   int max_iterations = 2000;
   int direct_max_unknowns = 100000;     // auto, 2-D: direct LDL^T up to this size, PCG above
+  DirectOrdering ordering = DirectOrdering::grid;  // ldlt
+  // ldlt: keep the factor simplicial LDL^T, as row modifications (the unilateral
+  // interface's rounds) and quasi-definite systems (the solid's stiffness) need; otherwise
+  // CHOLMOD may choose a supernodal LL^T.
+  bool simplicial = false;
   bool warm_start = true;
 };
 
@@ -51,6 +59,10 @@ class LinearSolver {
   // entries back (the active set's rounds, PressureSystem::release). The LDL^T solver then
   // modifies its factorisation row by row instead of factorising again; others ignore it.
   virtual void expect_row_changes(std::vector<int> /*released*/, std::vector<int> /*restored*/) {}
+  // A fill-reducing order for the next analysis of a new pattern: order[k] is the unknown
+  // eliminated k-th (the caller's, from the grid; empty: the solver's own, AMD). Direct
+  // solvers use it; others ignore it.
+  virtual void suggest_order(std::vector<int> /*order*/) {}
 };
 
 // Chooses the solver for a system of `unknowns` rows according to the options. "auto" is

@@ -23,22 +23,24 @@ struct FixedCorotated {
     return {lame.mu, lame.lambda};
   }
 
-  Real energy_density(const Mat<dim>& F) const {
-    const Vec<dim> sigma = rotation_variant_svd<dim>(F).sigma;
+  Real energy_density(const Mat<dim>& F) const { return energy_density(rotation_variant_svd<dim>(F)); }
+  Real energy_density(const RotationVariantSvd<dim>& svd) const {
+    const Vec<dim>& sigma = svd.sigma;
     const Real J = sigma.prod();
     return mu * (sigma.array() - 1).square().sum() + lambda / 2 * (J - 1) * (J - 1);
   }
 
   // P = 2 mu (F - R) + lambda (J - 1) J F^{-T}, written as U diag(dpsi/dsigma) V^T.
-  Mat<dim> first_piola(const Mat<dim>& F) const {
-    const RotationVariantSvd<dim> svd = rotation_variant_svd<dim>(F);
+  Mat<dim> first_piola(const Mat<dim>& F) const { return first_piola(rotation_variant_svd<dim>(F)); }
+  Mat<dim> first_piola(const RotationVariantSvd<dim>& svd) const {
     return svd.U * principal_gradient(svd.sigma).asDiagonal() * svd.V.transpose();
   }
 
   TensorMat<dim> first_piola_derivative(const Mat<dim>& F, bool project_to_psd) const {
-    const RotationVariantSvd<dim> svd = rotation_variant_svd<dim>(F);
-    return isotropic_first_piola_derivative<dim>(svd, principal_stiffness(svd.sigma),
-                                                 project_to_psd);
+    return first_piola_derivative(rotation_variant_svd<dim>(F), project_to_psd);
+  }
+  TensorMat<dim> first_piola_derivative(const RotationVariantSvd<dim>& svd, bool project_to_psd) const {
+    return isotropic_first_piola_derivative<dim>(svd, principal_stiffness(svd.sigma), project_to_psd);
   }
 
   // psi_i = 2 mu (sigma_i - 1) + lambda (J - 1) J_i, with J_i = dJ/dsigma_i = prod_{k != i} sigma_k.

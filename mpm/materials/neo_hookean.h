@@ -49,9 +49,10 @@ struct NeoHookean {
 
   TensorMat<dim> first_piola_derivative(const Mat<dim>& F, bool project_to_psd) const {
     assert(F.determinant() > 0 && "NeoHookean::first_piola_derivative needs det F > 0");
-    const RotationVariantSvd<dim> svd = rotation_variant_svd<dim>(F);
-    return isotropic_first_piola_derivative<dim>(svd, principal_stiffness(svd.sigma),
-                                                 project_to_psd);
+    return first_piola_derivative(rotation_variant_svd<dim>(F), project_to_psd);
+  }
+  TensorMat<dim> first_piola_derivative(const RotationVariantSvd<dim>& svd, bool project_to_psd) const {
+    return isotropic_first_piola_derivative<dim>(svd, principal_stiffness(svd.sigma), project_to_psd);
   }
 
   // psi_i = mu sigma_i + (lambda log J - mu) / sigma_i.

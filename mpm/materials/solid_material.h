@@ -30,6 +30,18 @@ struct SolidMaterial {
     return model == SolidModel::neo_hookean ? NeoHookean<dim>{mu, lambda}.first_piola_derivative(F, project_to_psd)
                                             : FixedCorotated<dim>{mu, lambda}.first_piola_derivative(F, project_to_psd);
   }
+
+  // The same from the rotation-variant SVD of F, which a caller may keep from one
+  // evaluation to the next (the Newton step: energy, then gradient and stiffness at the
+  // accepted state). The fixed-corotated energy and stress are functions of it; the
+  // neo-Hookean ones are not (energy_needs_svd() false), its stiffness is.
+  bool energy_needs_svd() const { return model == SolidModel::fixed_corotated; }
+  Real energy_density(const RotationVariantSvd<dim>& svd) const { return FixedCorotated<dim>{mu, lambda}.energy_density(svd); }
+  Mat<dim> first_piola(const RotationVariantSvd<dim>& svd) const { return FixedCorotated<dim>{mu, lambda}.first_piola(svd); }
+  TensorMat<dim> first_piola_derivative(const RotationVariantSvd<dim>& svd, bool project_to_psd) const {
+    return model == SolidModel::neo_hookean ? NeoHookean<dim>{mu, lambda}.first_piola_derivative(svd, project_to_psd)
+                                            : FixedCorotated<dim>{mu, lambda}.first_piola_derivative(svd, project_to_psd);
+  }
 };
 
 inline SolidModel solid_model_from_name(const std::string& name) {

@@ -35,6 +35,7 @@
 #include <vector>
 
 #include "core/types.h"
+#include "pressure/weighted_gram.h"
 
 namespace iqmpm {
 
@@ -117,9 +118,7 @@ class PressureSystem {
     constraint_.resize(rows_, inverse_mass_.size());
     constraint_.setFromTriplets(triplets_.begin(), triplets_.end());
     for (int column : block_columns_) inverse_mass_[column] = 0;
-    SparseRowMatrix scaled = constraint_ * inverse_mass_.asDiagonal();
-    SparseMatrix transpose = constraint_.transpose();
-    SparseMatrix multipliers = dt * (scaled * transpose);
+    SparseMatrix multipliers = weighted_gram(constraint_, inverse_mass_, dt);
     for (int i = 0; i < rows_; ++i)
       if (compliance_[i] != 0) multipliers.coeffRef(i, i) += compliance_[i];
     dt_ = dt;
@@ -165,12 +164,19 @@ class PressureSystem {
   // v^{n+1} = v* - dt M^-1 D^T lambda, and v_b* - dt u on the mass block's entries;
   // `solution` is (lambda, u) as solved.
   Eigen::VectorXd corrected_velocity(const Eigen::VectorXd& velocity, const Eigen::VectorXd& solution) const {
-    Eigen::VectorXd lambda = solution.head(rows_);
-    for (int i = 0; i < rows_; ++i)
-      if (released(i)) lambda[i] = 0;  // exactly: an iterative solve leaves it at the tolerance
-    Eigen::VectorXd v = velocity - dt_ * inverse_mass_.cwiseProduct(constraint_.transpose() * lambda);
+    Eigen::VectorXd v = velocity - dt_ * inverse_mass_.cwiseProduct(constraint_force(solution));
     for (int k = 0; k < int(block_columns_.size()); ++k) v[block_columns_[k]] -= dt_ * solution[rows_ + k];
     return v;
+  }
+
+  // D^T lambda per stacked velocity entry: the constraints' force on it (v^{n+1} = v* -
+  // dt M^-1 D^T lambda), with released rows' multipliers exactly zero (an iterative solve leaves them at the
+  // tolerance).
+  Eigen::VectorXd constraint_force(const Eigen::VectorXd& solution) const {
+    Eigen::VectorXd lambda = solution.head(rows_);
+    for (int i = 0; i < rows_; ++i)
+      if (released(i)) lambda[i] = 0;
+    return constraint_.transpose() * lambda;
   }
 
   // The multipliers (p_g, p_f, y, h): the solution's first unknowns() entries.

@@ -2,6 +2,9 @@
 
 #include <omp.h>
 
+#include <unsupported/Eigen/SparseExtra>
+
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <memory>
@@ -46,6 +49,23 @@ ParticleFrame make_frame(const Simulation<dim>& sim, double time) {
   return frame;
 }
 
+// --dump-system: the step's pressure system A, its right-hand side r, and where each
+// unknown lives (block and dual cell; grid size), so benchmarks/solvers can try solvers
+// and preconditioners on real matrices.
+template <int dim>
+void dump_pressure_system(const Simulation<dim>& sim, const std::string& directory, long step) {
+  const PressureSystem& system = sim.pressure_system();
+  const std::string stem = fmt::format("{}/{{}}_step{}", directory, step);
+  Eigen::saveMarket(system.matrix(), fmt::format(stem, "system") + ".mtx");  // both triangles, "general"
+  Eigen::saveMarketVector(system.rhs(sim.grid_velocity_before_projection()), fmt::format(stem, "rhs") + ".mtx");
+  Json layout;
+  layout["cells"] = std::vector<int>(sim.grid().cells.data(), sim.grid().cells.data() + dim);
+  layout["unknowns"] = system.size();
+  for (const auto& block : system.blocks()) layout["blocks"].push_back({{"name", block.name}, {"offset", block.offset}, {"size", block.size}});
+  layout["dual_cell"] = sim.dual_cell_of_unknowns();
+  write_file_atomically(fmt::format(stem, "layout") + ".json", layout.dump() + "\n");
+}
+
 template <int dim>
 RunResult run(const SceneSpec& scene, const RunOptions& options) {
   const auto wall_start = std::chrono::steady_clock::now();
@@ -84,6 +104,8 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
       sim.step(dt);
       t = policy.advance(t, dt, next_stop);
       statistics.add(sim.last_step());
+      if (writer && std::find(options.dump_steps.begin(), options.dump_steps.end(), statistics.steps()) != options.dump_steps.end())
+        dump_pressure_system(sim, options.out_dir, statistics.steps());
       sample(t);
       for (std::size_t c = 1; c < result.metrics.back().size(); ++c)
         if (std::isinf(result.metrics.back()[c]))

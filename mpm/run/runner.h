@@ -4,6 +4,7 @@
 
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "scene/scene.h"
 
@@ -18,6 +19,7 @@ struct RunProgress {
 struct RunOptions {
   std::string out_dir;  // empty: no files written (tests)
   std::function<void(const RunProgress&)> on_progress;  // called after every step
+  std::vector<long> dump_steps;  // steps (1-based) whose pressure system is written to out_dir
 };
 
 struct RunResult {

@@ -220,6 +220,11 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
         {{"auto", SurfaceQuadrature::automatic}, {"centre", SurfaceQuadrature::centre}, {"particles", SurfaceQuadrature::particles}},
         "quadrature of G^f and M^f in fluid cells next to empty ones: one point at the cell centre weighted by the "
         "particles' volume, or the particles (method.md §4); auto: centre with solids, particles without");
+    scene.fluid.wall_constraint = fluid.option<WallConstraint>(
+        "wall_constraint", scene.fluid.wall_constraint,
+        {{"auto", WallConstraint::automatic}, {"corners", WallConstraint::corners}, {"faces", WallConstraint::faces}},
+        "free-slip walls: corners holds the normal velocity of each fluid corner on a wall; faces adds one multiplier "
+        "row per wall face (badly conditioned); auto: corners in 3-D, faces in 2-D (docs/method.md#walls-on-corners)");
     scene.fluid.initial_velocity = fluid.vector("initial_velocity", std::vector<Real>(dim, 0), dim, "initial velocity of the fluid (m/s)");
     for (auto& shape : fluid.objects("shapes", "regions filled with fluid; a particle is seeded where any shape contains it"))
       scene.fluid.shapes.push_back(read_shape(shape, dim));
@@ -287,11 +292,17 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
         {{"auto", LinearSolverMethod::automatic}, {"pcg", LinearSolverMethod::pcg}, {"cholmod", LinearSolverMethod::cholmod}, {"ldlt", LinearSolverMethod::ldlt}},
         "auto: ldlt in 2-D up to direct_max_unknowns, pcg otherwise; pcg: conjugate gradients; cholmod: CHOLMOD LL^T; "
         "ldlt: CHOLMOD LDL^T (also quasi-definite systems)");
-    o.preconditioner = solver.option<Preconditioner>("preconditioner", o.preconditioner, {{"ichol", Preconditioner::ichol}, {"jacobi", Preconditioner::jacobi}},
-                                                     "PCG preconditioner: incomplete Cholesky (threshold fill, AMD ordering) or Jacobi");
+    o.preconditioner = solver.option<Preconditioner>(
+        "preconditioner", o.preconditioner, {{"ic0", Preconditioner::ic0}, {"ichol", Preconditioner::ichol}, {"jacobi", Preconditioner::jacobi}},
+        "PCG preconditioner: ic0 = incomplete Cholesky without fill in grid order; ichol = Eigen's threshold-fill "
+        "incomplete Cholesky in AMD order; jacobi");
     o.tolerance = solver.number("tolerance", o.tolerance, 0, 1, "PCG relative residual tolerance", true);
     o.max_iterations = solver.integer("max_iterations", o.max_iterations, 1, 1000000, "PCG iteration cap; reaching it stops the run");
     o.direct_max_unknowns = solver.integer("direct_max_unknowns", o.direct_max_unknowns, 0, std::numeric_limits<int>::max(), "auto: largest 2-D system solved directly");
+    o.ordering = solver.option<DirectOrdering>(
+        "ordering", o.ordering, {{"grid", DirectOrdering::grid}, {"amd", DirectOrdering::amd}},
+        "ldlt's fill-reducing order: grid = nested dissection of the grid, fixed for the run (no ordering per step); "
+        "amd = AMD on each step's pattern");
     o.warm_start = solver.boolean("warm_start", o.warm_start, "PCG starts from the previous step's pressures");
     solver.finish();
   }

@@ -15,6 +15,9 @@ namespace iqmpm {
 enum class ShapeType { box, sphere, polygon };
 
 enum class SurfaceQuadrature { automatic, particles, centre };
+// How a free-slip wall holds the fluid: its normal velocity component at each corner on
+// the wall, or one multiplier row per wall face (docs/method.md#walls-on-corners).
+enum class WallConstraint { automatic, corners, faces };
 enum class InitialPressure { zero, hydrostatic };
 enum class InterfaceConstraint { bilateral, unilateral };
 enum class SolidResponse { mass, stiffness };
@@ -58,6 +61,7 @@ struct FluidSpec {
   // Of G^f and M^f in fluid cells next to empty ones; automatic: centre with solids,
   // particles without (what the validated scenes use; docs/method.md#fluid-quadrature).
   SurfaceQuadrature surface_quadrature = SurfaceQuadrature::automatic;
+  WallConstraint wall_constraint = WallConstraint::automatic;
 };
 
 // One elastic body (method.md §1): hyperelastic model, density, the ghost matrix's

@@ -5,6 +5,9 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <utility>
+
 #include "core/errors.h"
 #include "interface/interface_force.h"
 #include "interface/solid_corners.h"
@@ -47,7 +50,9 @@ void Simulation<dim>::build_operators() {
 // corners' (v_f^n); the blocks are p_g (ghost matrix, G^sT with compliance S/dt and offset
 // S p_g^n/dt), p_f (G^fT), y (B) and h (H^f v_f - H^s v_s), each present only when the
 // scene needs it. A clamped node, or a component held by a wall, gets zero inverse mass:
-// the solve cannot move it.
+// the solve cannot move it. With fluid.wall_constraint = corners a fluid corner on a slip
+// wall is held likewise along the wall's normal, and there is no y block: the wall's
+// force is the momentum it holds (docs/method.md#walls-on-corners).
 template <int dim>
 void Simulation<dim>::assemble_pressure_system(Real dt) {
   auto scope = timer_.scope("assembly");
@@ -67,13 +72,17 @@ void Simulation<dim>::assemble_pressure_system(Real dt) {
       velocity_star_[d * dim + a] = v[a];
     }
   }
+  wall_holds_.clear();
   for (int d = 0; d < nf; ++d) {
     const int corner = ops_.corner_of_dof[d];
     // v^n from the APIC transfer (momentum / transferred mass); M^f from the quadrature.
     const Vec<dim> v = corner_momentum_.momentum[corner] / corner_momentum_.mass[corner];
     for (int a = 0; a < dim; ++a) {
-      inverse_mass[fluid_column_offset_ + d * dim + a] = 1 / ops_.mass[d];
-      velocity_star_[fluid_column_offset_ + d * dim + a] = v[a];
+      const int column = fluid_column_offset_ + d * dim + a;
+      const std::uint8_t sides = options_.walls_on_corners ? (ops_.on_wall[d] >> (2 * a)) & 3u : 0;
+      inverse_mass[column] = sides ? 0 : 1 / ops_.mass[d];
+      velocity_star_[column] = sides ? 0 : v[a];
+      if (sides) wall_holds_.push_back({column, a, sides & 1u ? 0 : 1, ops_.mass[d] * v[a] / dt});
     }
   }
   system_.reset(inverse_mass);
@@ -98,7 +107,7 @@ void Simulation<dim>::assemble_pressure_system(Real dt) {
         for (int a = 0; a < dim; ++a) on_solid.emplace_back(entry.row, dof * dim + a, weight * entry.coefficient[a]);
       });
     system_.add_entries(block, on_solid);
-    if (!ops_.wall_faces.empty()) {
+    if (!options_.walls_on_corners && !ops_.wall_faces.empty()) {
       layout_.wall = system_.unknowns();
       system_.add_block("y", int(ops_.wall_faces.size()), ops_.wall_rows, {}, {}, fluid_column_offset_);
     }
@@ -163,8 +172,8 @@ void Simulation<dim>::solve_pressure_system() {
   auto scope = timer_.scope("solve");
   const Eigen::VectorXd rhs = system_.rhs(velocity_star_);
   const int cells = grid_.dual_cells().size();
-  std::vector<int> wall_location(ops_.wall_faces.size());
-  for (std::size_t f = 0; f < ops_.wall_faces.size(); ++f) {
+  std::vector<int> wall_location(layout_.wall >= 0 ? ops_.wall_faces.size() : 0);
+  for (std::size_t f = 0; f < wall_location.size(); ++f) {
     const auto& face = ops_.wall_faces[f];
     wall_location[f] = face.dual_cell * 2 * dim + face.wall.axis * 2 + face.wall.side;
   }
@@ -177,6 +186,8 @@ void Simulation<dim>::solve_pressure_system() {
   // pattern repeats (the active-set rounds of a step).
   if (!pressure_solver_ || pressure_solver_->kind() != linear_solver_kind(options_.pressure_solver, system_.size(), dim))
     pressure_solver_ = make_linear_solver(options_.pressure_solver, system_.size(), dim);
+  if (!cell_rank_.empty() && !system_.has_mass_block() && pressure_solver_->kind() != LinearSolverKind::pcg)
+    pressure_solver_->suggest_order(grid_order_of_unknowns());
   last_.linear = pressure_solver_->solve(system_.matrix(), rhs, x);
   last_.modified_solves += last_.linear.modified_rows > 0;
   if (!last_.linear.converged || !x.allFinite())
@@ -197,6 +208,7 @@ template <int dim>
 void Simulation<dim>::update_grid_velocities() {
   auto scope = timer_.scope("velocity update");
   velocity_next_ = system_.corrected_velocity(velocity_star_, lambda_);
+  measure_wall_forces();
   if (has_fluid()) {
     corner_velocity_.assign(grid_.corners().size(), Vec<dim>::Zero());
     for (int d = 0; d < ops_.velocity_dofs(); ++d)
@@ -237,6 +249,33 @@ void Simulation<dim>::measure_interface_forces() {
   particle_force_ = interface_force_on_particles(grid_, solid_, node_momentum_.mass, solid_ops_, nodal);
 }
 
+// solver.ordering = grid: the unknowns by their dual cell's rank in the grid's nested
+// dissection, those of one cell in block order (p_g, p_f, y, h).
+template <int dim>
+std::vector<int> Simulation<dim>::grid_order_of_unknowns() const {
+  const std::vector<int> cell = dual_cell_of_unknowns();
+  std::vector<std::pair<int, int>> keyed(cell.size());
+  for (std::size_t u = 0; u < cell.size(); ++u) keyed[u] = {cell_rank_[cell[u]], int(u)};
+  std::sort(keyed.begin(), keyed.end());
+  std::vector<int> order(cell.size());
+  for (std::size_t k = 0; k < keyed.size(); ++k) order[k] = keyed[k].second;
+  return order;
+}
+
+template <int dim>
+std::vector<int> Simulation<dim>::dual_cell_of_unknowns() const {
+  std::vector<int> cell(system_.size(), -1);
+  auto place = [&](int offset, const std::vector<int>& cells) {
+    if (offset >= 0) std::copy(cells.begin(), cells.end(), cell.begin() + offset);
+  };
+  place(layout_.ghost, solid_ops_.cell_of_pressure);
+  place(layout_.pressure, ops_.cell_of_pressure);
+  if (layout_.wall >= 0)
+    for (std::size_t f = 0; f < ops_.wall_faces.size(); ++f) cell[layout_.wall + f] = ops_.wall_faces[f].dual_cell;
+  place(layout_.interface, iq_ops_.cell_of_multiplier);
+  return cell;
+}
+
 template <int dim>
 bool Simulation<dim>::has_fluid_pressure(int dual_cell) const {
   return layout_.pressure >= 0 && !ops_.pressure_of_cell.empty() && lambda_.size() > 0 && ops_.pressure_of_cell[dual_cell] >= 0;
@@ -256,9 +295,26 @@ Real Simulation<dim>::ghost_pressure(int dual_cell) const {
   return j >= 0 ? lambda_[layout_.ghost + j] : 0;
 }
 
+// The force of the fluid on each slip wall along its axis. Walls on the corners: a held
+// component's momentum balance m v^{n+1} = m v* - dt (D^T lambda) + dt R with v^{n+1} = 0
+// gives the wall's reaction R, and the fluid pushes with -R = m v*/dt - D^T lambda. Wall
+// faces: sum_k y_k |face_k| n_k (n: the fluid's outward normal).
 template <int dim>
-Real Simulation<dim>::wall_multiplier(int face) const {
-  return layout_.wall >= 0 && lambda_.size() > 0 ? lambda_[layout_.wall + face] : 0;
+void Simulation<dim>::measure_wall_forces() {
+  for (auto& sides : wall_force_) sides = {0, 0};
+  if (!has_fluid() || lambda_.size() == 0) return;
+  if (options_.walls_on_corners) {
+    if (wall_holds_.empty()) return;
+    const Eigen::VectorXd constraint = system_.constraint_force(lambda_);
+    for (const auto& hold : wall_holds_) wall_force_[hold.axis][hold.side] += hold.force_to_stop - constraint[hold.column];
+    return;
+  }
+  if (layout_.wall < 0) return;
+  const Real face_area = grid_.cell_volume() / grid_.dx;
+  for (std::size_t f = 0; f < ops_.wall_faces.size(); ++f) {
+    const DomainSide wall = ops_.wall_faces[f].wall;
+    wall_force_[wall.axis][wall.side] += lambda_[layout_.wall + int(f)] * face_area * (wall.side == 0 ? -1 : 1);
+  }
 }
 
 }  // namespace iqmpm

@@ -8,6 +8,7 @@
 #include <limits>
 
 #include "core/errors.h"
+#include "grid/nested_dissection.h"
 #include "simulation/seeding.h"
 #include "simulation/simulation.h"
 
@@ -18,6 +19,10 @@ inline StepOptions resolve_step_options(const SceneSpec& scene) {
   o.fluid_density = scene.fluid.density;
   o.surface_cells_at_centre = scene.fluid.surface_quadrature == SurfaceQuadrature::centre ||
                               (scene.fluid.surface_quadrature == SurfaceQuadrature::automatic && !scene.solids.empty());
+  // auto: faces in 2-D, where the corners made the dam break's splashes faster (the
+  // direct solve does not need the conditioning; docs/method.md#walls-on-corners).
+  o.walls_on_corners = scene.fluid.wall_constraint == WallConstraint::corners ||
+                       (scene.fluid.wall_constraint == WallConstraint::automatic && scene.dim == 3);
   o.position_correction = scene.experimental.position_correction;
   o.unilateral = scene.coupling.interface == InterfaceConstraint::unilateral;
   o.max_contact_rounds = scene.experimental.max_contact_rounds;
@@ -28,6 +33,7 @@ inline StepOptions resolve_step_options(const SceneSpec& scene) {
   // The bordered system with the solid's stiffness is quasi-definite: only LDL^T solves it
   // (the scene reader accepts it with ldlt, or auto in 2-D).
   if (o.solid_stiffness_in_solve) o.pressure_solver.method = LinearSolverMethod::ldlt;
+  o.pressure_solver.simplicial = o.unilateral || o.solid_stiffness_in_solve;
   o.newton.relative_tolerance = scene.newton.relative_tolerance;
   o.newton.absolute_tolerance = scene.newton.absolute_tolerance;
   o.newton.max_iterations = scene.newton.max_iterations;
@@ -50,6 +56,8 @@ Simulation<dim>::Simulation(const SceneSpec& scene) : scene_(scene), options_(re
   gravity_.cwiseAbs().maxCoeff(&up_axis_);
   for (int a = 0; a < dim; ++a)
     for (int s = 0; s < 2; ++s) slip_[a][s] = scene.slip_walls[a][s];
+  if (options_.pressure_solver.ordering == DirectOrdering::grid)
+    cell_rank_ = nested_dissection_rank<dim>(grid_.dual_cells(), grid_.cells);
   seed_fluid();
   seed_solids();
 }

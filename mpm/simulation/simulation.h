@@ -47,6 +47,7 @@ struct StepStats {
 struct StepOptions {
   Real fluid_density = 1000;
   bool surface_cells_at_centre = true;       // fluid.surface_quadrature
+  bool walls_on_corners = true;              // fluid.wall_constraint
   Real position_correction = 0;              // experimental.position_correction; 0 = off
   bool unilateral = false;                   // coupling.interface
   int max_contact_rounds = 8;                // experimental.max_contact_rounds
@@ -85,8 +86,8 @@ class Simulation {
   Real fluid_pressure(int dual_cell) const;
   bool has_fluid_pressure(int dual_cell) const;  // the cell holds a solved fluid pressure
   Real ghost_pressure(int dual_cell) const;
-  // The last solve's wall multiplier y of each wall face of the fluid operators.
-  Real wall_multiplier(int face) const;
+  // The force of the fluid on a slip wall along its axis in the last step (N/m in 2-D).
+  Real wall_force(int axis, int side) const { return wall_force_[axis][side]; }
   // Force of the fluid on each solid particle from the last solve (method.md §7): the
   // interface rows' nodal force -D^T lambda shared among the particles around each node by
   // their mass there; evaluated before the particles moved (interface/interface_force.h).
@@ -100,6 +101,9 @@ class Simulation {
   const Eigen::VectorXd& grid_velocity_before_projection() const { return velocity_star_; }
   const Eigen::VectorXd& grid_velocity_after_projection() const { return velocity_next_; }
   const std::vector<int>& fluid_cells() const { return ops_.cell_of_pressure; }  // dual cells with p_f
+  // The dual cell (layout index) of each unknown of the last system: p_g, p_f, y (the cell
+  // next to the wall face), h; -1 for the mass block's velocities.
+  std::vector<int> dual_cell_of_unknowns() const;
 
  private:
   // Set-up (set_up.h).
@@ -123,6 +127,8 @@ class Simulation {
   // Helpers of the stages.
   void set_solid_mass_block();
   void solve_pressure_system();
+  void measure_wall_forces();
+  std::vector<int> grid_order_of_unknowns() const;
   void keep_particles_in_domain(Particles<dim>& particles, const char* kind);
 
   // Fixed for the run.
@@ -135,6 +141,7 @@ class Simulation {
   std::vector<SolidMaterial<dim>> materials_;  // per body
   std::vector<Real> ghost_stiffness_;          // lambda_g per body
   std::vector<std::uint8_t> clamped_node_;     // dense over nodes; empty: no clamp
+  std::vector<int> cell_rank_;                 // solver.ordering = grid: each dual cell's place in the direct solve's order
 
   // Particles (all bodies share one solid set; Particles::body says which).
   Particles<dim> fluid_, solid_;
@@ -167,6 +174,14 @@ class Simulation {
   Eigen::VectorXd velocity_star_;  // stacked grid velocities before the projection
   Eigen::VectorXd velocity_next_;  // ... and after
   PressureSystem system_;
+  // Walls on the corners: each held fluid component, its wall, and m v*/dt along the axis.
+  struct WallHold {
+    int column;
+    int axis, side;
+    Real force_to_stop;
+  };
+  std::vector<WallHold> wall_holds_;
+  std::array<std::array<Real, 2>, dim> wall_force_{};
   std::unique_ptr<LinearSolver> pressure_solver_;
   Eigen::VectorXd lambda_;         // solution: the multipliers (p_g, p_f, y, h), then the mass block's u
   WarmStart warm_start_;

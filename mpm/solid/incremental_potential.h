@@ -76,7 +76,6 @@ class SolidIncrementalPotential {
     assert(material_of_particle_.empty() || material_of_particle_.size() == particles.size());
     number_free_nodes(nodes);
     gather_particles(grid, particles, nodes);
-    build_hessian_pattern();
   }
 
   int unknowns() const { return dim * int(free_node_.size()); }
@@ -119,15 +118,28 @@ class SolidIncrementalPotential {
 
   // sum_p V0_p Psi(F_p(v)); +infinity when some F_p is non-finite or outside the
   // material's domain (neo-Hookean J <= 0).
+  // The SVDs it computes are kept for gradient() and particle_stiffness() at the same v
+  // (the minimiser evaluates them at the accepted trial): one SVD per particle and Newton
+  // iteration instead of three (issue 21; bit-identical results).
   Real elastic_energy(const Vector& v) const {
     const int n = particle_count();
+    svd_.resize(n);
+    has_svd_.assign(n, 0);
     Real sum = 0;
 #pragma omp parallel for schedule(static) reduction(+ : sum)
     for (int p = 0; p < n; ++p) {
       const Mat<dim> F = deformation_gradient(p, v);
-      sum += F.allFinite() ? volume_[p] * material(p).energy_density(F)
-                           : std::numeric_limits<Real>::infinity();
+      if (!F.allFinite()) {
+        sum += std::numeric_limits<Real>::infinity();
+      } else if (material(p).energy_needs_svd()) {
+        svd_[p] = rotation_variant_svd<dim>(F);
+        has_svd_[p] = 1;
+        sum += volume_[p] * material(p).energy_density(svd_[p]);
+      } else {
+        sum += volume_[p] * material(p).energy_density(F);
+      }
     }
+    svd_velocity_ = v;
     return std::isfinite(sum) ? sum : std::numeric_limits<Real>::infinity();
   }
 
@@ -140,15 +152,13 @@ class SolidIncrementalPotential {
   Vector gradient(const Vector& v) const {
     const int n = particle_count();
     std::vector<Mat<dim>> stress(n);  // dt V0_p P(F_p)
+    const bool kept = svd_kept_for(v);
 #pragma omp parallel for schedule(static)
     for (int p = 0; p < n; ++p)
-      stress[p] = dt_ * volume_[p] * material(p).first_piola(deformation_gradient(p, v));
+      stress[p] = dt_ * volume_[p] *
+                  (kept && has_svd_[p] ? material(p).first_piola(svd_[p]) : material(p).first_piola(deformation_gradient(p, v)));
     Vector g = mass_.cwiseProduct(v - velocity_n_);
-    for (int p = 0; p < n; ++p)
-      for (int e = 0; e < kStencil; ++e) {
-        const int r = stencil_free_[p * kStencil + e];
-        if (r >= 0) g.template segment<dim>(dim * r) += stress[p] * b_[p * kStencil + e];
-      }
+    scatter_to_nodes(stress, g);
     for (int k : fixed_entries_) g[k] = 0;
     return g;
   }
@@ -158,14 +168,17 @@ class SolidIncrementalPotential {
   std::vector<TensorMat<dim>> particle_stiffness(const Vector& v, bool project_to_psd) const {
     const int n = particle_count();
     std::vector<TensorMat<dim>> stiffness(n);
+    const bool kept = svd_kept_for(v);
 #pragma omp parallel for schedule(static)
     for (int p = 0; p < n; ++p)
       stiffness[p] = dt_ * dt_ * volume_[p] *
-                     material(p).first_piola_derivative(deformation_gradient(p, v), project_to_psd);
+                     (kept && has_svd_[p] ? material(p).first_piola_derivative(svd_[p], project_to_psd)
+                                          : material(p).first_piola_derivative(deformation_gradient(p, v), project_to_psd));
     return stiffness;
   }
 
   SparseMatrix hessian(const Vector& v, bool project_to_psd) const {
+    if (pattern_row_start_.empty()) build_hessian_pattern();  // only an assembled Hessian needs it
     const int n = particle_count();
     const std::vector<TensorMat<dim>> stiffness = particle_stiffness(v, project_to_psd);
 
@@ -264,11 +277,7 @@ class SolidIncrementalPotential {
       stress_change[p] = Eigen::Map<const Mat<dim>>(dP.data());
     }
     Vector y = Vector::Zero(x.size());
-    for (int p = 0; p < n; ++p)
-      for (int e = 0; e < kStencil; ++e) {
-        const int r = stencil_free_[p * kStencil + e];
-        if (r >= 0) y.template segment<dim>(dim * r) += stress_change[p] * b_[p * kStencil + e];
-      }
+    scatter_to_nodes(stress_change, y);
     for (int k : fixed_entries_) y[k] = 0;
     return y + mass_.cwiseProduct(x);
   }
@@ -285,6 +294,9 @@ class SolidIncrementalPotential {
   static constexpr int kStencil = dim == 2 ? 9 : 27;    // 3^dim nodes of N2
   static constexpr int kNeighbours = dim == 2 ? 25 : 125;  // 5^dim node offsets within reach
   static constexpr int kCentreCode = dim == 2 ? 12 : 62;   // offset 0 in the 5^dim code
+
+  // The SVDs of the last energy evaluation, valid for that velocity only.
+  bool svd_kept_for(const Vector& v) const { return svd_velocity_.size() == v.size() && svd_velocity_ == v; }
 
   const Material& material(int p) const {
     return material_of_particle_.empty() ? materials_[0] : materials_[material_of_particle_[p]];
@@ -350,11 +362,35 @@ class SolidIncrementalPotential {
         ++e;
       });
     }
+    // Each free node's stencil entries p * kStencil + e, in increasing p.
+    const int free_count = int(free_node_.size());
+    node_entry_start_.assign(free_count + 1, 0);
+    for (int r : stencil_free_)
+      if (r >= 0) ++node_entry_start_[r + 1];
+    for (int r = 0; r < free_count; ++r) node_entry_start_[r + 1] += node_entry_start_[r];
+    node_entries_.resize(node_entry_start_[free_count]);
+    std::vector<int> next(node_entry_start_.begin(), node_entry_start_.end() - 1);
+    for (int k = 0; k < int(stencil_free_.size()); ++k)
+      if (stencil_free_[k] >= 0) node_entries_[next[stencil_free_[k]]++] = k;
+  }
+
+  // out_r += sum over node r's stencil entries (in increasing p) of per_particle[p] b_(p, e):
+  // the transpose of the particle gather, run on the threads node by node. Each node adds
+  // in the order a serial loop over the particles would: the same bits for any thread count.
+  void scatter_to_nodes(const std::vector<Mat<dim>>& per_particle, Vector& out) const {
+    const int free_count = int(free_node_.size());
+#pragma omp parallel for schedule(static)
+    for (int r = 0; r < free_count; ++r) {
+      Vec<dim> sum = out.template segment<dim>(dim * r);
+      for (int k = node_entry_start_[r]; k < node_entry_start_[r + 1]; ++k)
+        sum += per_particle[node_entries_[k] / kStencil] * b_[node_entries_[k]];
+      out.template segment<dim>(dim * r) = sum;
+    }
   }
 
   // Node pairs sharing a particle -> CSR pattern of the scalar Hessian. Row (r, a) lists,
   // for every neighbour slot s of node r (in increasing free number), columns (c_s, 0..dim-1).
-  void build_hessian_pattern() {
+  void build_hessian_pattern() const {
     // 5^dim code of offset(j) - offset(i) + 2 for two stencil entries.
     IVec<dim> offsets[kStencil];
     {
@@ -424,6 +460,9 @@ class SolidIncrementalPotential {
   Real dt_;
   Real dx_;
   std::vector<Material> materials_;
+  mutable std::vector<RotationVariantSvd<dim>> svd_;  // elastic_energy()'s, per particle
+  mutable std::vector<std::uint8_t> has_svd_;
+  mutable Vector svd_velocity_;
   std::vector<int> material_of_particle_;
 
   std::vector<int> free_node_;    // free number -> dense node
@@ -439,12 +478,14 @@ class SolidIncrementalPotential {
   std::vector<Mat<dim>> F_constant_;
   std::vector<Vec<dim>> b_;          // p * kStencil + e
   std::vector<int> stencil_free_;    // p * kStencil + e -> free number or -1
+  std::vector<int> node_entry_start_, node_entries_;  // free node -> its entries p * kStencil + e
 
-  int pair_code_[kStencil][kStencil];
-  std::vector<int> slot_;             // r * kNeighbours + code -> neighbour slot or -1
-  std::vector<int> neighbour_count_;
-  std::vector<int> pattern_row_start_;
-  std::vector<int> pattern_columns_;
+  // The assembled Hessian's pattern, built by the first hessian() call (CG Newton needs none).
+  mutable int pair_code_[kStencil][kStencil];
+  mutable std::vector<int> slot_;             // r * kNeighbours + code -> neighbour slot or -1
+  mutable std::vector<int> neighbour_count_;
+  mutable std::vector<int> pattern_row_start_;
+  mutable std::vector<int> pattern_columns_;
 };
 
 }  // namespace iqmpm
