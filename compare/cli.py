@@ -276,6 +276,15 @@ def _analyse(args: argparse.Namespace):
     bench = lookup(args.benchmark)
     ours = _load_runs(args.ours, "iqmpm")
     foam = _load_runs(args.foam, "interFoam")
+    if bench.generic:
+        # A scene of the user's own gets a generic report under its scene's name; any
+        # other unregistered name is a typo, not a benchmark.
+        scenes = sorted({str(r.summary.get("scene_name", "")) for r in ours} - {""})
+        if args.benchmark not in scenes:
+            from compare.registry import REGISTRY
+            raise CompareError(
+                f"--benchmark {args.benchmark!r}: not a registered benchmark and not the scene of the runs given "
+                f"({', '.join(scenes) or 'none named'}); registered: {', '.join(sorted(REGISTRY))}")
     out_dir = args.out / bench.name
     result = analyse(bench, ours, foam, out_dir, Options(_data_dir(args), args.fluid_material))
     return result, out_dir

@@ -2,6 +2,8 @@
 //   iqmpm run SCENE [--out DIR] [--set key=value ...] [--threads N] [--quiet]
 //   iqmpm check SCENE [--set key=value ...]
 //   iqmpm keys            (reference of every scene key, default and accepted values)
+// Exit codes: 0 ok, 2 bad input, 3 numerical failure (diagnosis in summary.json),
+// 130 / 143 interrupted by SIGINT / SIGTERM (outputs up to the interruption written).
 #include <omp.h>
 #include <unistd.h>
 
@@ -16,6 +18,7 @@
 #include "core/errors.h"
 #include "core/log.h"
 #include "scene/scene.h"
+#include "run/interrupt.h"
 #include "run/runner.h"
 
 namespace {
@@ -164,8 +167,13 @@ int main(int argc, char** argv) {
     options.out_dir = out_dir;
     options.dump_steps = dump_steps;
     options.on_progress = [&](const RunProgress& p) { progress(p); };
+    catch_interrupts();
     const RunResult result = run_scene(scene, options);
     if (!quiet) print_stage_table(result.summary);
+    if (result.signal != 0) {
+      spdlog::warn("the metrics up to the interruption and summary.json are in {}", out_dir);
+      return 128 + result.signal;
+    }
     if (!result.ok) {
       spdlog::error("run failed: {}", result.summary["status"].get<std::string>());
       spdlog::error("partial metrics and the diagnosis are in {}/summary.json", out_dir);

@@ -15,6 +15,7 @@
 #include "diagnostics/measurements.h"
 #include "diagnostics/probes.h"
 #include "io/output_writer.h"
+#include "run/interrupt.h"
 #include "run/run_statistics.h"
 #include "run/time_step_policy.h"
 #include "simulation/simulation.h"
@@ -112,10 +113,17 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
           throw NumericalFailure(fmt::format("metric '{}' is infinite at t = {:.4g} s", result.columns[c], t));
       if (policy.reached(t, next_frame)) {
         if (writer && scene.write_frames && (scene.frame_rate > 0 || policy.finished(t))) writer->write_frame(make_frame(sim, t));
+        if (writer) writer->write_metrics(result.columns, result.metrics);  // the metrics so far, every frame
         next_frame += frame_interval;
       }
       if (options.on_progress)
         options.on_progress({t, end_time, dt, elapsed(), statistics.steps(), sim.last_step().linear.iterations});
+      if (received_signal() != 0) {
+        result.signal = received_signal();
+        status = fmt::format("interrupted by {} at t = {:.6g} s, step {}", signal_name(result.signal), t, statistics.steps());
+        logger()->warn("{}", status);
+        break;
+      }
     }
   } catch (const NumericalFailure& failure) {
     status = fmt::format("failed at t = {:.6g} s, step {}: {}", t, statistics.steps() + 1, failure.what());

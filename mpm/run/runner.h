@@ -24,6 +24,7 @@ struct RunOptions {
 
 struct RunResult {
   bool ok = false;
+  int signal = 0;  // the run stopped on this signal (SIGINT, SIGTERM; run/interrupt.h); 0: it did not
   Json summary;
   std::vector<std::string> columns;          // metrics.csv header
   std::vector<std::vector<double>> metrics;  // metrics.csv rows

@@ -1,5 +1,6 @@
 #include "scene/json_reader.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -194,14 +195,44 @@ std::vector<JsonReader> JsonReader::objects(const std::string& key, const std::s
   return out;
 }
 
+namespace {
+
+// Levenshtein distance: how many single-character edits turn a into b.
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+}  // namespace
+
 void JsonReader::finish() const {
   if (docs_) return;
   std::vector<std::string> unknown;
   for (const auto& item : object_.items())
     if (!read_.count(item.key())) unknown.push_back(item.key());
   if (unknown.empty()) return;
-  throw InputError(fmt::format("unknown scene key '{}'; accepted keys here: {}", key_path(unknown.front()),
-                               fmt::join(read_, ", ")));
+  std::set<std::string> accepted = read_;
+  accepted.insert(also_accepted_.begin(), also_accepted_.end());
+  // A key within two edits of an accepted one (and not much shorter) is most likely a typo.
+  std::string suggestion;
+  std::size_t best = 3;
+  for (const auto& key : accepted) {
+    const std::size_t distance = edit_distance(unknown.front(), key);
+    if (distance < best && distance < std::max<std::size_t>(key.size(), 2)) best = distance, suggestion = key;
+  }
+  throw InputError(fmt::format("unknown scene key '{}'{}; accepted keys here: {}", key_path(unknown.front()),
+                               suggestion.empty() ? "" : fmt::format(" (did you mean '{}'?)", suggestion),
+                               fmt::join(accepted, ", ")));
 }
 
 void apply_override(Json& document, const std::string& assignment) {

@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <initializer_list>
 #include <set>
 #include <string>
 #include <utility>
@@ -65,6 +66,10 @@ class JsonReader {
 
   // Raises InputError for keys that no read asked for.
   void finish() const;
+  // Keys this object accepts that this reading did not ask for (the other pair of an
+  // either-or choice, e.g. mu and lambda beside youngs_modulus), named too when finish()
+  // rejects an unknown key.
+  void also_accepts(std::initializer_list<const char*> keys) { also_accepted_.insert(keys.begin(), keys.end()); }
 
   bool documenting() const { return docs_ != nullptr; }
   std::vector<KeyDoc>* docs() const { return docs_; }
@@ -80,6 +85,7 @@ class JsonReader {
   std::string path_;
   std::vector<KeyDoc>* docs_;
   std::set<std::string> read_;
+  std::set<std::string> also_accepted_;
 };
 
 // Applies `key.path=value` overrides to a JSON document (value parsed as JSON when it is

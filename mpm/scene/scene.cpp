@@ -155,6 +155,7 @@ SolidSpec read_solid(JsonReader& r, int dim, int index) {
   for (auto& shape : r.objects("clamps", "regions held fixed: every velocity node whose dual-cell centre lies in a region or "
                                          "within dx/2 of it along an axis has zero velocity"))
     s.clamps.push_back(read_shape(shape, dim));
+  r.also_accepts({"youngs_modulus", "poisson_ratio", "mu", "lambda"});
   r.finish();
   if (!doc && s.shapes.empty())
     throw InputError(fmt::format("scene key '{}.shapes': a solid needs at least one shape", r.path()));

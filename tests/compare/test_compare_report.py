@@ -124,3 +124,20 @@ def test_dam_break_front_normalised_against_koshizuka_oka(tmp_path):
     assert cells[6] == "5.00"  # rel. L2 (%)
     assert cells[10] == "5.00" and float(cells[11]) == pytest.approx(0.0, abs=1e-9)  # peak
     assert (out / "dam_break" / "series_front_x.png").is_file()
+
+
+def test_report_of_an_unknown_benchmark_is_bad_input(tmp_path, capsys):
+    """A name that is neither registered nor the runs' scene is a typo: exit 2, no report.
+    A scene of one's own, named as its runs name it, still gets a generic report."""
+    ours = hydrostatic_run(tmp_path / "ours", force_factor=1.0, wall_time=3.0)
+    out = tmp_path / "report"
+    assert main(["report", "--benchmark", "nosuch", "--ours", str(ours), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "'nosuch': not a registered benchmark" in err and "dam_break" in err
+    assert not (out / "nosuch").exists()
+    import json
+    summary = json.loads((ours / "summary.json").read_text())
+    summary["scene_name"] = "my_tank"
+    (ours / "summary.json").write_text(json.dumps(summary))
+    assert main(["report", "--benchmark", "my_tank", "--ours", str(ours), "--out", str(out)]) == 0
+    assert (out / "my_tank" / "report.md").is_file()

@@ -44,6 +44,13 @@ TYPED_TEST(SceneTest, UnknownKeyIsNamedWithAcceptedKeys) {
   Json doc = this->valid_scene();
   doc["fluid"]["densty"] = 1000;
   expect_rejected(doc, {"unknown scene key 'fluid.densty'", "density"});
+  // A misspelt key is named with the key it most likely meant; the accepted keys of an
+  // either-or choice are listed whichever pair the object used.
+  Json solid = this->valid_scene();
+  solid["solids"] = Json::array({{{"density", 500}, {"youngs_modulus", 1e6}, {"poisson_ratio", 0.3}, {"lamda", 1e6},
+                                  {"shapes", Json::array({{{"type", "box"}, {"min", std::vector<Real>(TestFixture::dim, 0.6)},
+                                                           {"max", std::vector<Real>(TestFixture::dim, 0.7)}}})}}});
+  expect_rejected(solid, {"unknown scene key 'solids[0].lamda' (did you mean 'lambda'?)", "mu", "youngs_modulus"});
 }
 
 TYPED_TEST(SceneTest, WrongTypeIsNamed) {
