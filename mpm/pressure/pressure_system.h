@@ -164,14 +164,19 @@ class PressureSystem {
   // v^{n+1} = v* - dt M^-1 D^T lambda, and v_b* - dt u on the mass block's entries;
   // `solution` is (lambda, u) as solved.
   Eigen::VectorXd corrected_velocity(const Eigen::VectorXd& velocity, const Eigen::VectorXd& solution) const {
-    Eigen::VectorXd v = velocity - dt_ * inverse_mass_.cwiseProduct(constraint_force(solution));
+    return corrected_velocity(velocity, solution, constraint_force(solution));
+  }
+  // The same with the constraint force D^T lambda of `solution` already computed.
+  Eigen::VectorXd corrected_velocity(const Eigen::VectorXd& velocity, const Eigen::VectorXd& solution,
+                                     const Eigen::VectorXd& force) const {
+    Eigen::VectorXd v = velocity - dt_ * inverse_mass_.cwiseProduct(force);
     for (int k = 0; k < int(block_columns_.size()); ++k) v[block_columns_[k]] -= dt_ * solution[rows_ + k];
     return v;
   }
 
   // D^T lambda per stacked velocity entry: the constraints' force on it (v^{n+1} = v* -
-  // dt M^-1 D^T lambda), with released rows' multipliers exactly zero (an iterative solve leaves them at the
-  // tolerance).
+  // dt M^-1 D^T lambda), with released rows' multipliers exactly zero (an iterative solve
+  // leaves them at the tolerance).
   Eigen::VectorXd constraint_force(const Eigen::VectorXd& solution) const {
     Eigen::VectorXd lambda = solution.head(rows_);
     for (int i = 0; i < rows_; ++i)

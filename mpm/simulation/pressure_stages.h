@@ -152,6 +152,9 @@ void Simulation<dim>::solve_with_interface_constraint() {
     for (const auto& entry : ops_.solid_corner_gradient) p_rows_on_solid.push_back(entry.row);
     contact_.start(system_, layout_.interface, iq_ops_.cell_of_multiplier, layout_.pressure, p_rows_on_solid, ops_.cell_of_pressure);
   }
+  // solver.ordering = grid: the order for this step's pattern, which its rounds keep.
+  const bool direct = linear_solver_kind(options_.pressure_solver, system_.size(), dim) != LinearSolverKind::pcg;
+  if (direct && !cell_rank_.empty() && !system_.has_mass_block()) grid_order_ = grid_order_of_unknowns();
   solve_pressure_system();
   while (options_.unilateral && contact_.update(system_, velocity_star_, lambda_, grid_.dual_cells().size())) {
     if (last_.contact_rounds == options_.max_contact_rounds) {
@@ -186,8 +189,10 @@ void Simulation<dim>::solve_pressure_system() {
   // pattern repeats (the active-set rounds of a step).
   if (!pressure_solver_ || pressure_solver_->kind() != linear_solver_kind(options_.pressure_solver, system_.size(), dim))
     pressure_solver_ = make_linear_solver(options_.pressure_solver, system_.size(), dim);
-  if (!cell_rank_.empty() && !system_.has_mass_block() && pressure_solver_->kind() != LinearSolverKind::pcg)
-    pressure_solver_->suggest_order(grid_order_of_unknowns());
+  if (!grid_order_.empty()) {
+    pressure_solver_->suggest_order(std::move(grid_order_));
+    grid_order_.clear();
+  }
   last_.linear = pressure_solver_->solve(system_.matrix(), rhs, x);
   last_.modified_solves += last_.linear.modified_rows > 0;
   if (!last_.linear.converged || !x.allFinite())
@@ -207,8 +212,9 @@ void Simulation<dim>::solve_pressure_system() {
 template <int dim>
 void Simulation<dim>::update_grid_velocities() {
   auto scope = timer_.scope("velocity update");
-  velocity_next_ = system_.corrected_velocity(velocity_star_, lambda_);
-  measure_wall_forces();
+  const Eigen::VectorXd constraint_force = system_.constraint_force(lambda_);
+  velocity_next_ = system_.corrected_velocity(velocity_star_, lambda_, constraint_force);
+  measure_wall_forces(constraint_force);
   if (has_fluid()) {
     corner_velocity_.assign(grid_.corners().size(), Vec<dim>::Zero());
     for (int d = 0; d < ops_.velocity_dofs(); ++d)
@@ -300,13 +306,12 @@ Real Simulation<dim>::ghost_pressure(int dual_cell) const {
 // gives the wall's reaction R, and the fluid pushes with -R = m v*/dt - D^T lambda. Wall
 // faces: sum_k y_k |face_k| n_k (n: the fluid's outward normal).
 template <int dim>
-void Simulation<dim>::measure_wall_forces() {
+void Simulation<dim>::measure_wall_forces(const Eigen::VectorXd& constraint_force) {
   for (auto& sides : wall_force_) sides = {0, 0};
   if (!has_fluid() || lambda_.size() == 0) return;
   if (options_.walls_on_corners) {
     if (wall_holds_.empty()) return;
-    const Eigen::VectorXd constraint = system_.constraint_force(lambda_);
-    for (const auto& hold : wall_holds_) wall_force_[hold.axis][hold.side] += hold.force_to_stop - constraint[hold.column];
+    for (const auto& hold : wall_holds_) wall_force_[hold.axis][hold.side] += hold.force_to_stop - constraint_force[hold.column];
     return;
   }
   if (layout_.wall < 0) return;

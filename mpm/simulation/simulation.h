@@ -127,7 +127,7 @@ class Simulation {
   // Helpers of the stages.
   void set_solid_mass_block();
   void solve_pressure_system();
-  void measure_wall_forces();
+  void measure_wall_forces(const Eigen::VectorXd& constraint_force);
   std::vector<int> grid_order_of_unknowns() const;
   void keep_particles_in_domain(Particles<dim>& particles, const char* kind);
 
@@ -183,6 +183,7 @@ class Simulation {
   std::vector<WallHold> wall_holds_;
   std::array<std::array<Real, 2>, dim> wall_force_{};
   std::unique_ptr<LinearSolver> pressure_solver_;
+  std::vector<int> grid_order_;    // this step's order for a direct solver (solver.ordering = grid); handed over once
   Eigen::VectorXd lambda_;         // solution: the multipliers (p_g, p_f, y, h), then the mass block's u
   WarmStart warm_start_;
   UnilateralContact contact_;      // unilateral interface: the active set
