@@ -9,6 +9,7 @@ packages=(
   libeigen3-dev libsuitesparse-dev libopenblas0-openmp libhdf5-dev libgtest-dev
   nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev
   python3 python3-numpy python3-scipy python3-h5py python3-meshio python3-matplotlib python3-pytest
+  libtorch-dev python3-torch
   openfoam openfoam-examples
 )
 missing=()

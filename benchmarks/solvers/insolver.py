@@ -11,7 +11,7 @@ What it measures
       3d_tank0.6   floating_block_3d_fine.json (tank 0.6 x 0.75 x 0.6 m, dt_max 0.625 ms) at
                    dx 0.1 / 0.05 / 0.025 (dx 0.1 needs a domain height of 0.8 m: 0.75 m is 7.5
                    cells), to t = --end-3d (0.1 s), PCG with IC(0), warm start (the defaults)
-      3d_tank0.6_cold  the same with solver.warm_start = false (zero first guess, as in matrices.py)
+      3d_tank0.6_cold  the same with solver.warm_start = none (zero first guess, as in matrices.py)
       3d_tank1     floating_block_3d.json (tank 1 x 0.75 x 1 m, dt_max 5 ms) at dx 0.125 / 0.05 to
                    t = 0.1 s, then the 0.025 run of 3d_tank0.6 (the fine cube scene): the
                    resolutions of the scene files as they are (not exact halvings, other tank)
@@ -43,9 +43,9 @@ def series_table(end3, end2):
         "3d_tank0.6": [(fine, 0.1, tall + [f"end_time={end3}"]),
                        (fine, 0.05, [f"end_time={end3}"]),
                        (fine, 0.025, [f"end_time={end3}"])],
-        "3d_tank0.6_cold": [(fine, 0.1, tall + [f"end_time={end3}", "solver.warm_start=false"]),
-                            (fine, 0.05, [f"end_time={end3}", "solver.warm_start=false"]),
-                            (fine, 0.025, [f"end_time={end3}", "solver.warm_start=false"])],
+        "3d_tank0.6_cold": [(fine, 0.1, tall + [f"end_time={end3}", "solver.warm_start=none"]),
+                            (fine, 0.05, [f"end_time={end3}", "solver.warm_start=none"]),
+                            (fine, 0.025, [f"end_time={end3}", "solver.warm_start=none"])],
         "3d_tank1": [(B3 + "floating_block_3d.json", 0.125, [f"end_time={end3}"]),
                      (B3 + "floating_block_3d.json", 0.05, [f"end_time={end3}"]),
                      (fine, 0.025, [f"end_time={end3}"])],

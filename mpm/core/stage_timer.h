@@ -39,6 +39,13 @@ class StageTimer {
 
   const std::vector<std::pair<std::string, double>>& stages() const { return stages_; }
 
+  // Seconds of one stage so far (0 if it never ran).
+  double seconds(const std::string& stage) const {
+    for (const auto& entry : stages_)
+      if (entry.first == stage) return entry.second;
+    return 0;
+  }
+
   double total() const {
     double sum = 0;
     for (const auto& entry : stages_) sum += entry.second;

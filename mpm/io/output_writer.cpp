@@ -29,7 +29,7 @@ OutputWriter::OutputWriter(std::string directory, bool frames) : directory_(std:
   // An earlier run's outputs in the same folder would mix with this run's: remove what a
   // run writes (and nothing else).
   const fs::path root(directory_);
-  for (const char* name : {"frames", "particles.xdmf", "metrics.csv", "summary.json"}) {
+  for (const char* name : {"frames", "particles.xdmf", "metrics.csv", "steps.csv", "summary.json", "pressure_fields.h5"}) {
     fs::remove_all(root / name, ec);
     if (ec) throw InputError(fmt::format("--out '{}': cannot replace the earlier run's '{}': {}", directory_, name, ec.message()));
   }
@@ -113,6 +113,11 @@ void OutputWriter::write_collection() const {
 }
 
 void OutputWriter::write_metrics(const std::vector<std::string>& columns, const std::vector<std::vector<double>>& rows) const {
+  write_table("metrics.csv", columns, rows);
+}
+
+void OutputWriter::write_table(const std::string& name, const std::vector<std::string>& columns,
+                               const std::vector<std::vector<double>>& rows) const {
   std::string text;
   for (std::size_t c = 0; c < columns.size(); ++c) text += (c ? "," : "") + columns[c];
   text += "\n";
@@ -120,7 +125,7 @@ void OutputWriter::write_metrics(const std::vector<std::string>& columns, const 
     for (std::size_t c = 0; c < row.size(); ++c) text += fmt::format("{}{:.10g}", c ? "," : "", row[c]);
     text += "\n";
   }
-  write_file_atomically((fs::path(directory_) / "metrics.csv").string(), text);
+  write_file_atomically((fs::path(directory_) / name).string(), text);
 }
 
 void OutputWriter::write_summary(const Json& summary) const {

@@ -27,6 +27,9 @@ class OutputWriter {
   OutputWriter(std::string directory, bool frames);
   void write_frame(const ParticleFrame& frame);
   void write_metrics(const std::vector<std::string>& columns, const std::vector<std::vector<double>>& rows) const;
+  // A CSV table in the folder (metrics.csv, steps.csv), rewritten whole.
+  void write_table(const std::string& name, const std::vector<std::string>& columns,
+                   const std::vector<std::vector<double>>& rows) const;
   void write_summary(const Json& summary) const;
   const std::string& directory() const { return directory_; }
 

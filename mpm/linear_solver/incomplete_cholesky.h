@@ -6,7 +6,9 @@
 //
 // The Q1-P0 pressure stencil is not an M-matrix, so a pivot can turn non-positive; the
 // factorisation is then redone on A + alpha diag(A) with alpha = 1e-3, doubling (Manteuffel's
-// shift), and shift() reports the alpha used.
+// shift), and shift() reports the alpha used. A row of A that is empty (zero diagonal, so
+// zero throughout in a semi-definite A: an unknown that nothing constrains this step, as the
+// direct solve's zero pivot) gets the pivot 1: the preconditioner leaves it alone.
 #pragma once
 
 #include <Eigen/SparseCore>
@@ -30,11 +32,14 @@ class IncompleteCholesky0 {
     std::vector<Real> diagonal(n, 0);
     for (int i = 0; i < n; ++i) {
       for (Eigen::SparseMatrix<Real>::InnerIterator it(A, i); it; ++it) {
-        if (it.row() > i) break;
-        if (it.row() == i) diagonal[i] = it.value();
+        if (it.row() >= i) break;
         column_.push_back(int(it.row()));
         value_.push_back(it.value());
       }
+      diagonal[i] = A.coeff(i, i);
+      if (diagonal[i] == 0) diagonal[i] = 1;  // an empty row
+      column_.push_back(i);
+      value_.push_back(diagonal[i]);
       start_[i + 1] = int(column_.size());
     }
     original_ = value_;
@@ -90,7 +95,6 @@ class IncompleteCholesky0 {
     std::vector<Real> work(n, 0);
     for (int i = 0; i < n; ++i) {
       const int first = start_[i], last = start_[i + 1] - 1;
-      if (last < first || column_[last] != i) return false;  // no diagonal entry
       for (int e = first; e <= last; ++e) work[column_[e]] = value_[e];
       Real diagonal = work[i];
       for (int e = first; e < last; ++e) {

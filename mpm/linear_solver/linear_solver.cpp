@@ -37,7 +37,7 @@ class PcgSolver final : public LinearSolver {
     LinearSolveStats stats;
     stats.method = name();
     const int n = int(b.size());
-    if (x.size() != n || !options_.warm_start) x = Eigen::VectorXd::Zero(n);
+    if (x.size() != n) x = Eigen::VectorXd::Zero(n);
     Eigen::VectorXd inverse_diagonal;
     IncompleteCholesky0 ic0;
     // Eigen's incomplete Cholesky with threshold fill (Lin & More), AMD ordering and an
@@ -69,6 +69,7 @@ class PcgSolver final : public LinearSolver {
         },
         b, x, options_.tolerance, options_.max_iterations);
     stats.iterations = result.iterations;
+    stats.initial_relative_residual = result.initial_relative_residual;
     stats.relative_residual = result.relative_residual;
     stats.converged = result.converged;
     return stats;

@@ -30,12 +30,12 @@ struct LinearSolverOptions {
   // interface's rounds) and quasi-definite systems (the solid's stiffness) need; otherwise
   // CHOLMOD may choose a supernodal LL^T.
   bool simplicial = false;
-  bool warm_start = true;
 };
 
 struct LinearSolveStats {
   std::string method;
   int iterations = 0;         // CG iterations (0 for a direct solve)
+  Real initial_relative_residual = 0;  // CG: of the first guess (1 from zero; 0 for a direct solve)
   Real relative_residual = 0;
   bool converged = false;
   bool shifted = false;       // direct solve: refactorised with a tiny diagonal shift after a zero pivot

@@ -11,6 +11,7 @@ namespace iqmpm {
 
 struct PcgResult {
   int iterations = 0;
+  Real initial_relative_residual = 0;  // of the first guess: |b - A x0| / |b|
   Real relative_residual = 0;
   bool converged = false;
 };
@@ -36,6 +37,7 @@ PcgResult preconditioned_cg(const Product& product, const Precondition& precondi
   p = z;
   Real rz = r.dot(z);
   Real residual = r.norm() / b_norm;
+  result.initial_relative_residual = residual;
   int k = 0;
   while (residual > tolerance && k < max_iterations) {
     q.noalias() = product(p);

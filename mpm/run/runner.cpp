@@ -15,6 +15,7 @@
 #include "diagnostics/measurements.h"
 #include "diagnostics/probes.h"
 #include "io/output_writer.h"
+#include "io/pressure_field_writer.h"
 #include "run/interrupt.h"
 #include "run/run_statistics.h"
 #include "run/time_step_policy.h"
@@ -78,6 +79,13 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
   const TimeStepPolicy policy(scene);
   std::unique_ptr<OutputWriter> writer;
   if (!options.out_dir.empty()) writer = std::make_unique<OutputWriter>(options.out_dir, scene.write_frames);
+  std::unique_ptr<PressureFieldWriter> pressure_fields;
+  if (writer && scene.write_pressure_fields)
+    pressure_fields = std::make_unique<PressureFieldWriter>(options.out_dir, scene.name, scene.dx, scene.domain_min,
+                                                            std::vector<int>(sim.grid().cells.data(), sim.grid().cells.data() + dim));
+  // steps.csv: the pressure solve of every step (benchmarks.md, "Output contract").
+  const std::vector<std::string> step_columns{"step", "t", "dt", "unknowns", "iterations", "initial_residual", "solve_s", "warm_start_s", "contact_rounds"};
+  std::vector<std::vector<double>> step_rows;
 
   result.columns.push_back("t");
   for (std::size_t i = 0; i < probes.size(); ++i) result.columns.push_back(probes.name(i));
@@ -102,9 +110,15 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
     while (!policy.finished(t)) {
       const double next_stop = std::min(next_frame, end_time);
       const double dt = policy.next_dt(sim, t, next_stop);
+      const double solve_before = sim.timer().seconds("solve"), guess_before = sim.timer().seconds("warm start");
       sim.step(dt);
       t = policy.advance(t, dt, next_stop);
       statistics.add(sim.last_step());
+      const StepStats& last = sim.last_step();
+      step_rows.push_back({double(statistics.steps()), t, dt, double(last.pressure_unknowns), double(last.linear.iterations),
+                           last.linear.initial_relative_residual, sim.timer().seconds("solve") - solve_before, sim.timer().seconds("warm start") - guess_before,
+                           double(last.contact_rounds)});
+      if (pressure_fields) pressure_fields->append(sim.pressure_fields(), dt, statistics.steps(), last.linear.iterations);
       if (writer && std::find(options.dump_steps.begin(), options.dump_steps.end(), statistics.steps()) != options.dump_steps.end())
         dump_pressure_system(sim, options.out_dir, statistics.steps());
       sample(t);
@@ -113,7 +127,10 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
           throw NumericalFailure(fmt::format("metric '{}' is infinite at t = {:.4g} s", result.columns[c], t));
       if (policy.reached(t, next_frame)) {
         if (writer && scene.write_frames && (scene.frame_rate > 0 || policy.finished(t))) writer->write_frame(make_frame(sim, t));
-        if (writer) writer->write_metrics(result.columns, result.metrics);  // the metrics so far, every frame
+        if (writer) {  // the metrics so far, every frame
+          writer->write_metrics(result.columns, result.metrics);
+          writer->write_table("steps.csv", step_columns, step_rows);
+        }
         next_frame += frame_interval;
       }
       if (options.on_progress)
@@ -159,6 +176,7 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
       {"scene", scene.document},
   };
   statistics.write(summary, sim.has_solids());
+  summary["rejected_warm_starts"] = sim.rejected_warm_starts();
   Json final_metrics = Json::object();
   for (std::size_t c = 1; c < result.columns.size(); ++c) {
     const double v = result.metrics.back()[c];
@@ -169,6 +187,8 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
   result.summary = summary;
   if (writer) {
     writer->write_metrics(result.columns, result.metrics);
+    writer->write_table("steps.csv", step_columns, step_rows);
+    if (pressure_fields) pressure_fields->close();
     writer->write_summary(summary);
   }
   return result;

@@ -196,6 +196,9 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
   scene.end_time = root.number("end_time", std::nullopt, 0, kInf, "simulated time to run (s)", true);
   scene.frame_rate = root.number("frame_rate", 0, 0, kInf, "particle frames written per simulated second; 0 = only the first and the last");
   scene.write_frames = root.boolean("write_frames", true, "write particle frames (HDF5 + XDMF) at all");
+  scene.write_pressure_fields = root.boolean(
+      "write_pressure_fields", false,
+      "write every step's solved pressure fields as dense grid tensors to pressure_fields.h5 (MPMNet's dataset, mpmnet/README.md)");
   scene.cfl = root.number("cfl", 0.5, 0, 1, "CFL number: dt = cfl dx / max(particle speed, sqrt(|g| dx))", true);
   scene.dt_min = root.number("dt_min", 1e-7, 0, kInf, "smallest time step (s); a smaller one needed stops the run", true);
   scene.dt_max = root.number("dt_max", 1e-2, 0, kInf, "largest time step (s)", true);
@@ -304,7 +307,23 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
         "ordering", o.ordering, {{"grid", DirectOrdering::grid}, {"amd", DirectOrdering::amd}},
         "ldlt's fill-reducing order: grid = nested dissection of the grid, fixed for the run (no ordering per step); "
         "amd = AMD on each step's pattern");
-    o.warm_start = solver.boolean("warm_start", o.warm_start, "PCG starts from the previous step's pressures");
+    auto& w = scene.warm_start;
+    w.kind = solver.option<WarmStartKind>(
+        "warm_start", w.kind,
+        {{"none", WarmStartKind::none}, {"previous", WarmStartKind::previous}, {"extrapolate", WarmStartKind::extrapolate},
+         {"projection", WarmStartKind::projection}, {"learned", WarmStartKind::learned}},
+        "PCG's first guess: none = zero; previous = the last step's solution by grid cell; extrapolate = linear in time "
+        "through the last two; projection = the A-norm-best combination of the last warm_start_history solutions "
+        "(Fischer); learned = MPMNet's prediction (solver.model) combined with them the same way (docs/method.md#warm-start)");
+    w.history = solver.integer("warm_start_history", w.history, 0, 32,
+                               "projection, learned: solutions combined (k); learned with 0 takes the network's prediction as it is");
+    w.model = solver.text("model", w.model.empty() ? std::optional<std::string>("") : w.model,
+                          "learned: the MPMNet TorchScript model file (mpmnet/README.md); a relative path is taken from the "
+                          "working directory");
+    if (!docs && w.kind == WarmStartKind::projection && w.history < 1)
+      throw InputError("scene key 'solver.warm_start_history' = 0: projection needs at least 1 solution; accepted: 1 to 32");
+    if (!docs && w.kind == WarmStartKind::learned && w.model.empty())
+      throw InputError("scene key 'solver.model': required with solver.warm_start = \"learned\" (an MPMNet TorchScript file, mpmnet/README.md)");
     solver.finish();
   }
   {

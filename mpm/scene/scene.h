@@ -8,6 +8,7 @@
 
 #include "linear_solver/linear_solver.h"
 #include "materials/solid_material.h"
+#include "pressure/warm_start.h"
 #include "scene/json_reader.h"
 
 namespace iqmpm {
@@ -116,6 +117,7 @@ struct SceneSpec {
   Real end_time = 1;
   Real frame_rate = 0;     // output frames per second of simulated time; 0: first and last only
   bool write_frames = true;
+  bool write_pressure_fields = false;  // pressure_fields.h5: MPMNet's dataset (io/pressure_field_writer.h)
   Real cfl = 0.5;
   Real dt_min = 1e-7, dt_max = 1e-2;
   std::array<std::array<bool, 2>, 3> slip_walls{};  // [axis][side]: a free-slip wall (else no wall)
@@ -125,6 +127,7 @@ struct SceneSpec {
   CouplingSpec coupling;
   ExperimentalSpec experimental;
   LinearSolverOptions solver;
+  WarmStartSpec warm_start;  // solver.warm_start, solver.warm_start_history, solver.model
   std::vector<ProbeSpec> probes;
   Json document;  // the scene as given (after --set), stored in summary.json
 };

@@ -144,7 +144,8 @@ void Simulation<dim>::set_solid_mass_block() {
 }
 
 // §5 with the interface constraint: one solve (bilateral), or active-set rounds
-// (unilateral, interface/unilateral_contact.h), each warm-started from the last.
+// (unilateral, interface/unilateral_contact.h). The first starts from the warm start
+// (solver.warm_start, pressure/warm_start.h), each later round from the round before.
 template <int dim>
 void Simulation<dim>::solve_with_interface_constraint() {
   if (options_.unilateral) {
@@ -152,10 +153,18 @@ void Simulation<dim>::solve_with_interface_constraint() {
     for (const auto& entry : ops_.solid_corner_gradient) p_rows_on_solid.push_back(entry.row);
     contact_.start(system_, layout_.interface, iq_ops_.cell_of_multiplier, layout_.pressure, p_rows_on_solid, ops_.cell_of_pressure);
   }
+  unknown_locations_ = locate_unknowns();
+  Eigen::VectorXd rhs = system_.rhs(velocity_star_);
   // solver.ordering = grid: the order for this step's pattern, which its rounds keep.
   const bool direct = linear_solver_kind(options_.pressure_solver, system_.size(), dim) != LinearSolverKind::pcg;
   if (direct && !cell_rank_.empty() && !system_.has_mass_block()) grid_order_ = grid_order_of_unknowns();
-  solve_pressure_system();
+  if (direct) {
+    lambda_.setZero(system_.size());  // a direct solve needs no guess
+  } else {
+    auto scope = timer_.scope("warm start");
+    warm_start_.guess(unknown_locations_, system_.matrix(), rhs, time_, lambda_);
+  }
+  solve_pressure_system(rhs);
   while (options_.unilateral && contact_.update(system_, velocity_star_, lambda_, grid_.dual_cells().size())) {
     if (last_.contact_rounds == options_.max_contact_rounds) {
       last_.contact_settled = false;  // keep the last solve's (consistent) solution
@@ -166,25 +175,32 @@ void Simulation<dim>::solve_with_interface_constraint() {
     // The next solve's matrix differs from the last one in these rows only (an LDL^T
     // solver modifies its factor instead of factorising).
     pressure_solver_->expect_row_changes(contact_.take_newly_released(), contact_.take_newly_restored());
-    solve_pressure_system();
+    rhs = system_.rhs(velocity_star_);
+    solve_pressure_system(rhs);
   }
+  warm_start_.remember(unknown_locations_, lambda_, time_);
 }
 
+// Where the unknowns of this step's system live on the grid (pressure/warm_start.h).
 template <int dim>
-void Simulation<dim>::solve_pressure_system() {
-  auto scope = timer_.scope("solve");
-  const Eigen::VectorXd rhs = system_.rhs(velocity_star_);
+UnknownLocations Simulation<dim>::locate_unknowns() const {
   const int cells = grid_.dual_cells().size();
-  std::vector<int> wall_location(layout_.wall >= 0 ? ops_.wall_faces.size() : 0);
-  for (std::size_t f = 0; f < wall_location.size(); ++f) {
-    const auto& face = ops_.wall_faces[f];
-    wall_location[f] = face.dual_cell * 2 * dim + face.wall.axis * 2 + face.wall.side;
-  }
-  Eigen::VectorXd x = Eigen::VectorXd::Zero(system_.size());
-  warm_start_.guess(WarmStart::ghost, layout_.ghost, solid_ops_.cell_of_pressure, x);
-  warm_start_.guess(WarmStart::pressure, layout_.pressure, ops_.cell_of_pressure, x);
-  warm_start_.guess(WarmStart::wall, layout_.wall, wall_location, x);
-  warm_start_.guess(WarmStart::interface, layout_.interface, iq_ops_.cell_of_multiplier, x);
+  UnknownLocations where;
+  where.offset = {layout_.ghost, layout_.pressure, layout_.wall, layout_.interface};
+  where.locations = {cells, cells, cells * 2 * dim, cells};
+  where.location[ghost_block] = solid_ops_.cell_of_pressure;
+  where.location[pressure_block] = ops_.cell_of_pressure;
+  where.location[interface_block] = iq_ops_.cell_of_multiplier;
+  if (layout_.wall >= 0)
+    for (const auto& face : ops_.wall_faces)
+      where.location[wall_block].push_back(face.dual_cell * 2 * dim + face.wall.axis * 2 + face.wall.side);
+  return where;
+}
+
+// One solve from lambda_ as the first guess; the solution replaces it.
+template <int dim>
+void Simulation<dim>::solve_pressure_system(const Eigen::VectorXd& rhs) {
+  auto scope = timer_.scope("solve");
   // One solver kept across solves: a direct one reuses its symbolic analysis while the
   // pattern repeats (the active-set rounds of a step).
   if (!pressure_solver_ || pressure_solver_->kind() != linear_solver_kind(options_.pressure_solver, system_.size(), dim))
@@ -193,19 +209,14 @@ void Simulation<dim>::solve_pressure_system() {
     pressure_solver_->suggest_order(std::move(grid_order_));
     grid_order_.clear();
   }
-  last_.linear = pressure_solver_->solve(system_.matrix(), rhs, x);
+  last_.linear = pressure_solver_->solve(system_.matrix(), rhs, lambda_);
   last_.modified_solves += last_.linear.modified_rows > 0;
-  if (!last_.linear.converged || !x.allFinite())
+  if (!last_.linear.converged || !lambda_.allFinite())
     throw NumericalFailure(fmt::format(
         "pressure solve ({}) did not converge: relative residual {:.3g} after {} iterations (tolerance {:.1g}, {} unknowns); "
         "try solver.method=cholmod, a smaller cfl, or a larger solver.max_iterations",
         last_.linear.method, last_.linear.relative_residual, last_.linear.iterations, options_.pressure_solver.tolerance,
         system_.unknowns()));
-  lambda_ = x;
-  warm_start_.remember(WarmStart::ghost, layout_.ghost, solid_ops_.cell_of_pressure, cells, x);
-  warm_start_.remember(WarmStart::pressure, layout_.pressure, ops_.cell_of_pressure, cells, x);
-  warm_start_.remember(WarmStart::wall, layout_.wall, wall_location, cells * 2 * dim, x);
-  warm_start_.remember(WarmStart::interface, layout_.interface, iq_ops_.cell_of_multiplier, cells, x);
 }
 
 // §5: v^{n+1} = v* - dt M^-1 D^T lambda.

@@ -56,6 +56,7 @@ Simulation<dim>::Simulation(const SceneSpec& scene) : scene_(scene), options_(re
   gravity_.cwiseAbs().maxCoeff(&up_axis_);
   for (int a = 0; a < dim; ++a)
     for (int s = 0; s < 2; ++s) slip_[a][s] = scene.slip_walls[a][s];
+  warm_start_ = WarmStart(scene.warm_start, dim, std::vector<int>(grid_.cells.data(), grid_.cells.data() + dim));
   if (options_.pressure_solver.ordering == DirectOrdering::grid)
     cell_rank_ = nested_dissection_rank<dim>(grid_.dual_cells(), grid_.cells);
   seed_fluid();

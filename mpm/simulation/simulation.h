@@ -81,6 +81,14 @@ class Simulation {
   int interface_points() const { return iq_points_.size(); }
   const StageTimer& timer() const { return timer_; }
   const StepStats& last_step() const { return last_; }
+  // Simulated time at the end of the last step (the sum of the steps' dt).
+  Real time() const { return time_; }
+  // The last step's solution as dense grid fields (the warm start's Map; MPMNet's tensors).
+  GridSolution pressure_fields() const { return map_to_grid(unknown_locations_, lambda_, time_); }
+  // Warm-start guesses that were not finite and were replaced (pressure/warm_start.h).
+  long rejected_warm_starts() const { return warm_start_.rejected_predictions(); }
+  // Where the last system's unknowns live on the grid (pressure/warm_start.h).
+  const UnknownLocations& unknown_locations() const { return unknown_locations_; }
 
   // The last solve's multipliers by dual cell (layout index); 0 where the cell has none.
   Real fluid_pressure(int dual_cell) const;
@@ -126,7 +134,8 @@ class Simulation {
   void correct_fluid_positions();
   // Helpers of the stages.
   void set_solid_mass_block();
-  void solve_pressure_system();
+  void solve_pressure_system(const Eigen::VectorXd& rhs);
+  UnknownLocations locate_unknowns() const;
   void measure_wall_forces(const Eigen::VectorXd& constraint_force);
   std::vector<int> grid_order_of_unknowns() const;
   void keep_particles_in_domain(Particles<dim>& particles, const char* kind);
@@ -186,6 +195,8 @@ class Simulation {
   std::vector<int> grid_order_;    // this step's order for a direct solver (solver.ordering = grid); handed over once
   Eigen::VectorXd lambda_;         // solution: the multipliers (p_g, p_f, y, h), then the mass block's u
   WarmStart warm_start_;
+  UnknownLocations unknown_locations_;  // of this step's system
+  Real time_ = 0;                       // at the end of the step (in progress)
   UnilateralContact contact_;      // unilateral interface: the active set
 
   StageTimer timer_;

@@ -14,6 +14,7 @@ namespace iqmpm {
 template <int dim>
 void Simulation<dim>::step(Real dt) {
   last_ = StepStats{};
+  time_ += dt;
 
   // Particles sorted by dual cell: the bins of P2G, the spatial hash of the IQ search.
   sort_particles();

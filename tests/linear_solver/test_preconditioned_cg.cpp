@@ -123,6 +123,46 @@ TEST(IncompleteCholesky0Test, ShiftsWhenAPivotBreaksDown) {
   EXPECT_LT((x - dense.llt().solve(b)).norm(), 1e-10);
 }
 
+// A semi-definite system with empty rows (an unknown nothing constrains this step; the
+// dam break with an obstacle met one at a/32): one row with a stored zero diagonal, one with
+// no entry at all. IC(0) takes pivot 1 there, without a shift, and PCG solves the
+// consistent system (b = 0 on the empty rows) as a dense solve of the rest does.
+TEST(IncompleteCholesky0Test, AnEmptyRowGetsAUnitPivot) {
+  Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(5, 5);
+  dense.block(0, 0, 3, 3) << 4, -1, -1, -1, 4, -1, -1, -1, 4;
+  dense(4, 4) = 3;
+  dense(0, 4) = dense(4, 0) = -1;
+  SparseMatrix A = dense.sparseView();
+  A.coeffRef(3, 3) = 0;  // row 3: an explicitly stored zero (B below: row 1 has no entry)
+  IncompleteCholesky0 ic0;
+  ASSERT_TRUE(ic0.compute(A));
+  EXPECT_EQ(ic0.shift(), 0);
+  LinearSolverOptions options;
+  options.method = LinearSolverMethod::pcg;
+  options.tolerance = 1e-12;
+  const Eigen::VectorXd b = (Eigen::VectorXd(5) << 1, -2, 0.5, 0, 3).finished();
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(5);
+  ASSERT_TRUE(make_linear_solver(options, 5, 2)->solve(A, b, x).converged);
+  const std::vector<int> live{0, 1, 2, 4};
+  Eigen::MatrixXd reduced(4, 4);
+  Eigen::VectorXd rhs(4);
+  for (int i = 0; i < 4; ++i) {
+    rhs[i] = b[live[i]];
+    for (int j = 0; j < 4; ++j) reduced(i, j) = dense(live[i], live[j]);
+  }
+  const Eigen::VectorXd expected = reduced.llt().solve(rhs);
+  for (int i = 0; i < 4; ++i) EXPECT_NEAR(x[live[i]], expected[i], 1e-10);
+  EXPECT_EQ(x[3], 0);
+
+  Eigen::MatrixXd hole = dense;
+  hole.row(1).setZero();
+  hole.col(1).setZero();
+  const SparseMatrix B = hole.sparseView();  // no entry in row and column 1
+  ASSERT_EQ(B.col(1).nonZeros(), 0);
+  ASSERT_TRUE(ic0.compute(B));
+  EXPECT_EQ(ic0.shift(), 0);
+}
+
 // The products run on the OpenMP threads row by row, each row summed in the same order:
 // the iterations, and the solution, do not depend on the thread count.
 TEST(PressureSolversTest, IterationsDoNotDependOnThreadCount) {
