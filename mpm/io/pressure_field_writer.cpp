@@ -114,7 +114,7 @@ void PressureFieldWriter::append(const GridSolution& solution, double dt, long s
     const auto& active = solution.active[LearnedPredictor::fields[c]];
     if (value.size() != count) continue;
     for (std::size_t k = 0; k < count; ++k) {
-      values_[c * count + k] = float(value[k]);
+      values_[c * count + k] = mpmnet_value(value[k]);
       masks_[c * count + k] = active[k];
     }
   }

@@ -4,7 +4,9 @@
 // CMake finds libtorch (IQMPM_WITH_TORCH); otherwise load() refuses with an input error.
 #pragma once
 
+#include <cmath>
 #include <deque>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -29,6 +31,12 @@ class LearnedPredictor {
   // warm start asks only once it has them all).
   virtual GridSolution predict(const std::deque<GridSolution>& history, const UnknownLocations& where) const = 0;
 };
+
+// A multiplier as MPMNet's float32 tensors hold it: values below float's normal range
+// (|v| < 1.2e-38 Pa, a zero that round-off left in double) are 0. Kept, such a subnormal
+// was the scale of its field in the network's normalisation and made the prediction
+// infinite (docs/journal.md, 2026-12-02).
+inline float mpmnet_value(Real v) { return std::abs(v) < std::numeric_limits<float>::min() ? 0.0f : float(v); }
 
 // Whether this build has libtorch (solver.warm_start = learned).
 bool learned_warm_start_available();

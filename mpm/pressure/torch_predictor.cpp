@@ -45,7 +45,7 @@ class TorchPredictor final : public LearnedPredictor {
         if (field.size() != std::size_t(cell_count_)) continue;
         const std::size_t base = (std::size_t(t) * C + c) * cell_count_;
         for (int k = 0; k < cell_count_; ++k) {
-          v[base + k] = float(field[k]);
+          v[base + k] = mpmnet_value(field[k]);
           a[base + k] = mask[k];
         }
       }
