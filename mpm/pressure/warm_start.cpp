@@ -34,7 +34,7 @@ void WarmStart::remember(const UnknownLocations& where, const Eigen::VectorXd& x
 }
 
 void WarmStart::guess(const UnknownLocations& where, const Eigen::SparseMatrix<Real>& A, const Eigen::VectorXd& b,
-                      double time, Eigen::VectorXd& x) const {
+                      double time, Eigen::VectorXd& x) {
   x.setZero(A.rows());
   if (history_.empty()) return;
   switch (spec_.kind) {
@@ -86,7 +86,7 @@ void WarmStart::guess(const UnknownLocations& where, const Eigen::SparseMatrix<R
 }
 
 void WarmStart::project(const UnknownLocations& where, const Eigen::SparseMatrix<Real>& A, const Eigen::VectorXd& b,
-                        const Eigen::VectorXd* extra, Eigen::VectorXd& x) const {
+                        const Eigen::VectorXd* extra, Eigen::VectorXd& x) {
   const std::size_t columns = std::min<std::size_t>(history_.size(), std::size_t(std::max(spec_.history, 1)));
   Eigen::MatrixXd X = Eigen::MatrixXd::Zero(A.rows(), Eigen::Index(columns) + (extra ? 1 : 0));
   for (std::size_t j = 0; j < columns; ++j) {

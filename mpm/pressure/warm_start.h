@@ -95,7 +95,7 @@ class WarmStart {
   // The first guess of a step's solve of A x = b, ending at `time`, with unknowns `where`.
   // x has the system's size; entries that no kind predicts (the mass block) are zero.
   void guess(const UnknownLocations& where, const Eigen::SparseMatrix<Real>& A, const Eigen::VectorXd& b, double time,
-             Eigen::VectorXd& x) const;
+             Eigen::VectorXd& x);
   // Keeps a step's final solution.
   void remember(const UnknownLocations& where, const Eigen::VectorXd& x, double time);
 
@@ -109,12 +109,12 @@ class WarmStart {
  private:
   std::size_t kept() const;
   void project(const UnknownLocations& where, const Eigen::SparseMatrix<Real>& A, const Eigen::VectorXd& b,
-               const Eigen::VectorXd* extra, Eigen::VectorXd& x) const;
+               const Eigen::VectorXd* extra, Eigen::VectorXd& x);
 
   WarmStartSpec spec_;
   std::deque<GridSolution> history_;
   std::unique_ptr<LearnedPredictor> learned_;
-  mutable long rejected_predictions_ = 0;
+  long rejected_predictions_ = 0;
 };
 
 // The A-norm-best x in the span of the columns of X for A x = b: X c with
