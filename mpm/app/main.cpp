@@ -1,9 +1,11 @@
 // iqmpm: command-line front end of the IQ-MPM solver.
 //   iqmpm run SCENE [--out DIR] [--set key=value ...] [--threads N] [--quiet]
+//   iqmpm resume OUT_DIR [--set end_time=T ...] [--threads N] [--quiet]
 //   iqmpm check SCENE [--set key=value ...]
 //   iqmpm keys            (reference of every scene key, default and accepted values)
 // Exit codes: 0 ok, 2 bad input, 3 numerical failure (diagnosis in summary.json),
-// 130 / 143 interrupted by SIGINT / SIGTERM (outputs up to the interruption written).
+// 130 / 143 interrupted by SIGINT / SIGTERM (outputs up to the interruption and checkpoint.h5
+// written; `iqmpm resume` continues).
 #include <omp.h>
 #include <unistd.h>
 
@@ -19,6 +21,7 @@
 #include "core/log.h"
 #include "scene/scene.h"
 #include "run/interrupt.h"
+#include "run/resume.h"
 #include "run/runner.h"
 
 namespace {
@@ -119,6 +122,15 @@ int main(int argc, char** argv) {
                   "rhs_stepN.mtx and layout_stepN.json (blocks, dual cell of each unknown), for benchmarks/solvers")
       ->check(CLI::PositiveNumber)->delimiter(',');
 
+  auto* resume = app.add_subcommand("resume", "continue a run from OUT_DIR/checkpoint.h5 in the same folder (written every "
+                                              "checkpoint.every_frames frames, on SIGINT / SIGTERM and at the end)");
+  resume->add_option("out", out_dir, "the run's output folder")->required()->check(CLI::ExistingDirectory);
+  resume->add_option("--set,-s", overrides, "change end_time, cfl, dt_min, dt_max, write_pressure_fields, checkpoint.*, "
+                                            "solver.* or newton.* (repeatable)");
+  resume->add_option("--threads,-j", threads, "OpenMP threads (0: all cores; at most 1024); the checkpoint's count repeats "
+                                              "the uninterrupted run bit for bit")->check(CLI::Range(0, 1024))->capture_default_str();
+  resume->add_flag("--quiet,-q", quiet, "no progress output");
+
   auto* check = app.add_subcommand("check", "validate a scene file (and --set overrides) without running it");
   check->add_option("scene", scene_path, "scene file (JSON)")->required()->check(CLI::ExistingFile);
   check->add_option("--set,-s", overrides, "override a scene key (repeatable)");
@@ -152,20 +164,24 @@ int main(int argc, char** argv) {
         fmt::print("| `{}` | {} | {} | {} | {} |\n", k.path, k.type, k.default_value, k.accepted, k.meaning);
       return 0;
     }
-    const SceneSpec scene = load_scene(scene_path, overrides);
+    std::shared_ptr<const StateArchive> checkpoint;
+    if (*resume) checkpoint = read_checkpoint(out_dir);
+    const SceneSpec scene = checkpoint ? scene_to_resume(*checkpoint, overrides) : load_scene(scene_path, overrides);
     if (*check) {
       fmt::print("{}: valid ({}-D, dx = {:g} m, end_time = {:g} s, {} probes)\n", scene_path, scene.dim, scene.dx,
                  scene.end_time, scene.probes.size());
       return 0;
     }
     if (threads > 0) omp_set_num_threads(threads);
-    spdlog::info("iqmpm {}: scene '{}' ({}-D, dx = {:g} m, end_time = {:g} s), {} threads, output in {}", IQMPM_VERSION,
+    spdlog::info("iqmpm {}: {} '{}' ({}-D, dx = {:g} m, end_time = {:g} s), {} threads, output in {}", IQMPM_VERSION,
+                 checkpoint ? fmt::format("resuming at t = {:.6g} s", checkpoint->record.at("run").at("t").get<double>()) : "scene",
                  scene.name.empty() ? scene_path : scene.name, scene.dim, scene.dx, scene.end_time, omp_get_max_threads(),
                  out_dir);
     ProgressReporter progress(quiet);
     RunOptions options;
     options.out_dir = out_dir;
     options.dump_steps = dump_steps;
+    options.resume = checkpoint;
     options.on_progress = [&](const RunProgress& p) { progress(p); };
     catch_interrupts();
     const RunResult result = run_scene(scene, options);

@@ -79,6 +79,14 @@ class UnilateralContact {
   }
 
   const std::vector<std::uint8_t>& released_rows() const { return released_; }
+  // The cells released at the end of the last step (h rows, p_f rows), which the next
+  // step starts from: part of a checkpoint.
+  const std::vector<std::uint8_t>& released_h_cells() const { return released_h_cells_; }
+  const std::vector<std::uint8_t>& released_p_cells() const { return released_p_cells_; }
+  void restore_released_cells(std::vector<std::uint8_t> h_cells, std::vector<std::uint8_t> p_cells) {
+    released_h_cells_ = std::move(h_cells);
+    released_p_cells_ = std::move(p_cells);
+  }
   // The rows the last round released and restored (an LDL^T solver modifies its factor there).
   std::vector<int> take_newly_released() { return std::move(newly_released_); }
   std::vector<int> take_newly_restored() { return std::move(newly_restored_); }

@@ -29,7 +29,7 @@ OutputWriter::OutputWriter(std::string directory, bool frames) : directory_(std:
   // An earlier run's outputs in the same folder would mix with this run's: remove what a
   // run writes (and nothing else).
   const fs::path root(directory_);
-  for (const char* name : {"frames", "particles.xdmf", "metrics.csv", "steps.csv", "summary.json", "pressure_fields.h5"}) {
+  for (const char* name : {"frames", "particles.xdmf", "metrics.csv", "steps.csv", "summary.json", "checkpoint.h5", "pressure_fields.h5"}) {
     fs::remove_all(root / name, ec);
     if (ec) throw InputError(fmt::format("--out '{}': cannot replace the earlier run's '{}': {}", directory_, name, ec.message()));
   }
@@ -37,12 +37,41 @@ OutputWriter::OutputWriter(std::string directory, bool frames) : directory_(std:
   if (ec) throw InputError(fmt::format("--out '{}': cannot create the frames folder: {}", directory_, ec.message()));
 }
 
+OutputWriter::OutputWriter(std::string directory, bool frames, const Json& written) : directory_(std::move(directory)) {
+  for (const auto& frame : written) {
+    frames_.emplace_back(frame.at(0).get<int>(), frame.at(1).get<double>());
+    counts_.push_back(frame.at(2).get<int>());
+  }
+  const fs::path frames_dir = fs::path(directory_) / "frames";
+  std::error_code ec;
+  if (frames) fs::create_directories(frames_dir, ec);
+  if (ec) throw InputError(fmt::format("--out '{}': cannot create the frames folder: {}", directory_, ec.message()));
+  // Frames the interrupted run wrote after its checkpoint: this run writes them again.
+  for (int index = int(frames_.size());; ++index) {
+    const fs::path stem = frames_dir / fmt::format("frame_{:05d}", index);
+    if (!fs::exists(stem.string() + ".h5") && !fs::exists(stem.string() + ".xdmf")) break;
+    fs::remove(stem.string() + ".h5", ec);
+    fs::remove(stem.string() + ".xdmf", ec);
+  }
+}
+
+Json OutputWriter::frames_written() const {
+  Json written = Json::array();
+  for (std::size_t i = 0; i < frames_.size(); ++i) written.push_back({frames_[i].first, frames_[i].second, counts_[i]});
+  return written;
+}
+
 namespace {
 
 void write_dataset(hid_t file, const char* name, hid_t type, int rows, int cols, const void* data) {
   hsize_t dims[2] = {hsize_t(rows), hsize_t(cols)};
   hid_t space = H5Screate_simple(cols > 1 ? 2 : 1, dims, nullptr);
-  hid_t set = H5Dcreate2(file, name, type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  // No modification times in the file: the same frame gives the same bytes (a resumed run
+  // is compared with an uninterrupted one file by file).
+  hid_t properties = H5Pcreate(H5P_DATASET_CREATE);
+  H5Pset_obj_track_times(properties, false);
+  hid_t set = H5Dcreate2(file, name, type, space, H5P_DEFAULT, properties, H5P_DEFAULT);
+  H5Pclose(properties);
   if (rows > 0) H5Dwrite(set, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data);
   H5Dclose(set);
   H5Sclose(space);

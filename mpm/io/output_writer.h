@@ -23,8 +23,14 @@ struct ParticleFrame {
 class OutputWriter {
  public:
   // Creates the folder (and frames/ when frames are written), removing an earlier run's
-  // frames, particles.xdmf, metrics.csv and summary.json.
+  // outputs (frames, particles.xdmf, metrics.csv, steps.csv, summary.json, checkpoint.h5,
+  // pressure_fields.h5).
   OutputWriter(std::string directory, bool frames);
+  // Continues a run in its folder (iqmpm resume): the frames listed in `written` (from
+  // frames_written()) are kept, later ones (written after the checkpoint) removed.
+  OutputWriter(std::string directory, bool frames, const Json& written);
+  // The frames written so far: [[index, time, particles], ...].
+  Json frames_written() const;
   void write_frame(const ParticleFrame& frame);
   void write_metrics(const std::vector<std::string>& columns, const std::vector<std::vector<double>>& rows) const;
   // A CSV table in the folder (metrics.csv, steps.csv), rewritten whole.

@@ -105,6 +105,11 @@ class WarmStart {
   // Guesses that were not finite (a learned prediction, a projection that overflowed),
   // replaced by the last solution or the prediction alone.
   long rejected_predictions() const { return rejected_predictions_; }
+  // Continues from a checkpoint's history and count (run/checkpoint.h).
+  void restore(std::deque<GridSolution> history, long rejected_predictions) {
+    history_ = std::move(history);
+    rejected_predictions_ = rejected_predictions;
+  }
 
  private:
   std::size_t kept() const;

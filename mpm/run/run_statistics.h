@@ -28,6 +28,30 @@ class RunStatistics {
   }
   long steps() const { return steps_; }
 
+  // All of it, for a checkpoint, and back.
+  Json state() const {
+    auto range = [](const Range& r) { return Json{r.total, r.min, r.max}; };
+    return {{"steps", steps_}, {"active_cells_max", active_cells_max_}, {"linear", range(linear_)}, {"newton", range(newton_)},
+            {"contact_rounds", range(contact_rounds_)}, {"newton_cg_total", newton_cg_total_}, {"wall_clamps", wall_clamps_},
+            {"shifted_solves", shifted_solves_}, {"solid_min_J", solid_min_J_}, {"unsettled_steps", unsettled_steps_},
+            {"modified_solves", modified_solves_}, {"linear_method", linear_method_}};
+  }
+  void restore(const Json& state) {
+    auto range = [](const Json& j) { return Range{j.at(0).get<long>(), j.at(1).get<int>(), j.at(2).get<int>()}; };
+    steps_ = state.at("steps").get<long>();
+    active_cells_max_ = state.at("active_cells_max").get<int>();
+    linear_ = range(state.at("linear"));
+    newton_ = range(state.at("newton"));
+    contact_rounds_ = range(state.at("contact_rounds"));
+    newton_cg_total_ = state.at("newton_cg_total").get<long>();
+    wall_clamps_ = state.at("wall_clamps").get<int>();
+    shifted_solves_ = state.at("shifted_solves").get<long>();
+    solid_min_J_ = state.at("solid_min_J").get<double>();
+    unsettled_steps_ = state.at("unsettled_steps").get<int>();
+    modified_solves_ = state.at("modified_solves").get<long>();
+    linear_method_ = state.at("linear_method").get<std::string>();
+  }
+
   // The statistics' fields of summary.json.
   void write(Json& summary, bool has_solids) const {
     const bool any = steps_ > 0;

@@ -12,6 +12,7 @@
 #include "core/config.h"
 #include "core/errors.h"
 #include "core/log.h"
+#include "diagnostics/health.h"
 #include "diagnostics/measurements.h"
 #include "diagnostics/probes.h"
 #include "io/output_writer.h"
@@ -68,6 +69,19 @@ void dump_pressure_system(const Simulation<dim>& sim, const std::string& directo
   write_file_atomically(fmt::format(stem, "layout") + ".json", layout.dump() + "\n");
 }
 
+// Rows of equal width as one flat array (a checkpoint's), and back.
+std::vector<double> flatten_rows(const std::vector<std::vector<double>>& rows) {
+  std::vector<double> flat;
+  for (const auto& row : rows) flat.insert(flat.end(), row.begin(), row.end());
+  return flat;
+}
+std::vector<std::vector<double>> unflatten_rows(const std::vector<double>& flat, std::size_t width) {
+  std::vector<std::vector<double>> rows;
+  for (std::size_t i = 0; width > 0 && i + width <= flat.size(); i += width)
+    rows.emplace_back(flat.begin() + std::ptrdiff_t(i), flat.begin() + std::ptrdiff_t(i + width));
+  return rows;
+}
+
 template <int dim>
 RunResult run(const SceneSpec& scene, const RunOptions& options) {
   const auto wall_start = std::chrono::steady_clock::now();
@@ -77,47 +91,140 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
   Simulation<dim> sim(scene);
   const Probes<dim> probes(scene, sim);
   const TimeStepPolicy policy(scene);
-  std::unique_ptr<OutputWriter> writer;
-  if (!options.out_dir.empty()) writer = std::make_unique<OutputWriter>(options.out_dir, scene.write_frames);
-  std::unique_ptr<PressureFieldWriter> pressure_fields;
-  if (writer && scene.write_pressure_fields)
-    pressure_fields = std::make_unique<PressureFieldWriter>(options.out_dir, scene.name, scene.dx, scene.domain_min,
-                                                            std::vector<int>(sim.grid().cells.data(), sim.grid().cells.data() + dim));
-  // steps.csv: the pressure solve of every step (benchmarks.md, "Output contract").
-  const std::vector<std::string> step_columns{"step", "t", "dt", "unknowns", "iterations", "initial_residual", "solve_s", "warm_start_s", "contact_rounds"};
-  std::vector<std::vector<double>> step_rows;
+  // Of the seeded particles: a resumed run seeds the same ones before it restores.
+  const double initial_volume = fluid_volume(sim);
+  const double initial_particle_volume = fluid_particle_volume(sim);
 
+  // steps.csv: the pressure solve of every step (benchmarks.md, "Output contract").
+  const std::vector<std::string> step_columns{"step", "t", "dt", "unknowns", "iterations", "initial_residual", "solve_s", "warm_start_s", "contact_rounds", "energy"};
+  std::vector<std::vector<double>> step_rows;
   result.columns.push_back("t");
   for (std::size_t i = 0; i < probes.size(); ++i) result.columns.push_back(probes.name(i));
-  auto sample = [&](double t) {
-    std::vector<double> row{t};
-    for (std::size_t i = 0; i < probes.size(); ++i) row.push_back(probes.evaluate(sim, i));
-    result.metrics.push_back(std::move(row));
-  };
 
   const double end_time = scene.end_time;
   const double frame_interval = scene.frame_rate > 0 ? 1.0 / scene.frame_rate : end_time;
   double next_frame = frame_interval;
-  const double initial_volume = fluid_volume(sim);
-  const double initial_particle_volume = fluid_particle_volume(sim);
   double t = 0;
+  double earlier_wall_s = 0;        // of the runs this one continues
+  Json resumed_from = Json::array();  // where each resume started
   RunStatistics statistics;
-  std::string status = "ok";
+  long dt_retries = 0;
+  // Of the seeded particles too (their pieces, the energy scale).
+  std::unique_ptr<HealthChecks<dim>> health;
+  if (scene.health.checks) health = std::make_unique<HealthChecks<dim>>(sim, scene.health.energy_growth);
+  if (options.resume) {
+    const StateArchive& archive = *options.resume;
+    try {
+      const Json& state = archive.record.at("run");
+      t = state.at("t").get<double>();
+      next_frame = scene.frame_rate > 0 ? state.at("next_frame").get<double>() : end_time;
+      statistics.restore(state.at("statistics"));
+      earlier_wall_s = state.at("wall_time_s").get<double>();
+      resumed_from = state.at("resumed_from");
+      dt_retries = state.at("dt_retries").get<long>();
+      result.metrics = unflatten_rows(archive.doubles("run.metrics"), result.columns.size());
+      step_rows = unflatten_rows(archive.doubles("run.steps"), step_columns.size());
+      sim.restore_state(archive);
+      if (health) health->measure_reference(sim);
+    } catch (const Json::exception& e) {
+      throw InputError(fmt::format("the checkpoint's record is incomplete ({}): written by another version of iqmpm?", e.what()));
+    }
+    if (policy.finished(t))
+      throw InputError(fmt::format("scene key 'end_time' = {:g}: the checkpoint is at t = {:.6g} s; accepted: a later "
+                                   "end_time (iqmpm resume DIR --set end_time=T)", end_time, t));
+    if (scene.write_pressure_fields)
+      throw InputError("scene key 'write_pressure_fields' = true: a resumed run does not continue pressure_fields.h5; "
+                       "accepted: false (iqmpm resume DIR --set write_pressure_fields=false), or run the scene again");
+    resumed_from.push_back({{"t", t}, {"step", statistics.steps()}});
+    const int threads_before = archive.record.value("threads", 0);
+    if (threads_before != omp_get_max_threads())
+      logger()->warn("the checkpoint was written with {} threads, this run has {}: sums on the threads may group "
+                     "differently, so the results may differ from an uninterrupted run at round-off level",
+                     threads_before, omp_get_max_threads());
+  }
 
-  sample(0);
-  if (writer && scene.write_frames) writer->write_frame(make_frame(sim, 0));
+  std::unique_ptr<OutputWriter> writer;
+  if (!options.out_dir.empty())
+    writer = options.resume ? std::make_unique<OutputWriter>(options.out_dir, scene.write_frames, options.resume->record.at("run").at("frames"))
+                            : std::make_unique<OutputWriter>(options.out_dir, scene.write_frames);
+  std::unique_ptr<PressureFieldWriter> pressure_fields;
+  if (writer && scene.write_pressure_fields)
+    pressure_fields = std::make_unique<PressureFieldWriter>(options.out_dir, scene.name, scene.dx, scene.domain_min,
+                                                            std::vector<int>(sim.grid().cells.data(), sim.grid().cells.data() + dim));
+
+  auto sample = [&](double time) {
+    std::vector<double> row{time};
+    for (std::size_t i = 0; i < probes.size(); ++i) row.push_back(probes.evaluate(sim, i));
+    result.metrics.push_back(std::move(row));
+  };
+
+  // checkpoint.h5: everything the loop below carries from one step to the next.
+  Json last_checkpoint = nullptr;
+  double last_checkpoint_wall_s = 0;
+  int frames_since_checkpoint = 0;
+  auto write_checkpoint = [&] {
+    StateArchive archive;
+    archive.record["format"] = "iqmpm checkpoint";
+    archive.record["format_version"] = 1;
+    archive.record["version"] = IQMPM_VERSION;
+    archive.record["threads"] = omp_get_max_threads();
+    archive.record["scene"] = scene.document;
+    archive.record["run"] = {{"t", t},
+                             {"next_frame", next_frame},
+                             {"statistics", statistics.state()},
+                             {"wall_time_s", earlier_wall_s + elapsed()},
+                             {"resumed_from", resumed_from},
+                             {"dt_retries", dt_retries},
+                             {"frames", writer->frames_written()}};
+    archive.put("run.metrics", flatten_rows(result.metrics));
+    archive.put("run.steps", flatten_rows(step_rows));
+    sim.save_state(archive);
+    archive.write(fmt::format("{}/checkpoint.h5", options.out_dir));
+    last_checkpoint = {{"t", t}, {"step", statistics.steps()}};
+    last_checkpoint_wall_s = elapsed();
+    frames_since_checkpoint = 0;
+  };
+  const bool checkpoint_by_frames = scene.checkpoint.every_frames > 0;
+  const double checkpoint_interval_s = scene.checkpoint.every_minutes > 0 ? 60 * scene.checkpoint.every_minutes : INFINITY;
+
+  std::string status = "ok";
+  if (!options.resume) {
+    sample(0);
+    if (writer && scene.write_frames) writer->write_frame(make_frame(sim, 0));
+  }
   try {
     while (!policy.finished(t)) {
       const double next_stop = std::min(next_frame, end_time);
-      const double dt = policy.next_dt(sim, t, next_stop);
+      double dt = policy.next_dt(sim, t, next_stop);
       const double solve_before = sim.timer().seconds("solve"), guess_before = sim.timer().seconds("warm start");
-      sim.step(dt);
+      // A step that fails in a solver or fails a health check is taken again from its
+      // start with half the dt, up to health.max_retries times (docs/method.md#health-checks).
+      for (int attempt = 0;; ++attempt) {
+        const bool may_retry = attempt < scene.health.max_retries && dt / 2 >= scene.dt_min;
+        if (may_retry) sim.keep_step_start();
+        std::string problem;
+        try {
+          sim.step(dt);
+          if (health) problem = health->violation(sim);
+        } catch (const NumericalFailure& failure) {
+          problem = failure.what();
+        }
+        if (problem.empty()) break;
+        if (!may_retry)
+          throw NumericalFailure(attempt == 0 ? problem : fmt::format("{} (after {} halvings of dt, at dt = {:.3g} s)", problem, attempt, dt));
+        logger()->warn("step {} at t = {:.6g} s with dt = {:.3g} s: {}; taking it again with dt = {:.3g} s",
+                       statistics.steps() + 1, t, dt, problem, dt / 2);
+        sim.return_to_step_start();
+        dt /= 2;
+        ++dt_retries;
+      }
+      if (health) health->accept();
       t = policy.advance(t, dt, next_stop);
       statistics.add(sim.last_step());
       const StepStats& last = sim.last_step();
       step_rows.push_back({double(statistics.steps()), t, dt, double(last.pressure_unknowns), double(last.linear.iterations),
                            last.linear.initial_relative_residual, sim.timer().seconds("solve") - solve_before, sim.timer().seconds("warm start") - guess_before,
-                           double(last.contact_rounds)});
+                           double(last.contact_rounds), health ? health->energy() : NAN});
       if (pressure_fields) pressure_fields->append(sim.pressure_fields(), dt, statistics.steps(), last.linear.iterations);
       if (writer && std::find(options.dump_steps.begin(), options.dump_steps.end(), statistics.steps()) != options.dump_steps.end())
         dump_pressure_system(sim, options.out_dir, statistics.steps());
@@ -132,7 +239,13 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
           writer->write_table("steps.csv", step_columns, step_rows);
         }
         next_frame += frame_interval;
+        ++frames_since_checkpoint;
       }
+      const bool done = policy.finished(t) || received_signal() != 0;  // the end's checkpoint follows the loop
+      if (writer && !done &&
+          ((checkpoint_by_frames && frames_since_checkpoint >= scene.checkpoint.every_frames) ||
+           elapsed() - last_checkpoint_wall_s >= checkpoint_interval_s))
+        write_checkpoint();
       if (options.on_progress)
         options.on_progress({t, end_time, dt, elapsed(), statistics.steps(), sim.last_step().linear.iterations});
       if (received_signal() != 0) {
@@ -146,6 +259,9 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
     status = fmt::format("failed at t = {:.6g} s, step {}: {}", t, statistics.steps() + 1, failure.what());
     logger()->error("{}", status);
   }
+  // A failed step leaves a state no run should continue from: the last checkpoint stays.
+  const bool failed = status != "ok" && result.signal == 0;
+  if (writer && !failed) write_checkpoint();
 
   const double final_volume = fluid_volume(sim);
   const double final_particle_volume = fluid_particle_volume(sim);
@@ -159,7 +275,7 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
       {"dx", scene.dx},
       {"end_time", end_time},
       {"t_final", t},
-      {"wall_time_s", elapsed()},
+      {"wall_time_s", earlier_wall_s + elapsed()},
       {"steps", steps},
       {"particles", sim.fluid().size() + sim.solid().size()},
       {"fluid_particles", sim.fluid().size()},
@@ -173,6 +289,10 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
        initial_particle_volume > 0 ? (final_particle_volume - initial_particle_volume) / initial_particle_volume : 0.0},
       {"threads", omp_get_max_threads()},
       {"version", IQMPM_VERSION},
+      {"dt_retries", dt_retries},        // steps taken again with half the dt (docs/method.md#health-checks)
+      {"energy_scale", health ? Json(health->energy_scale()) : Json(nullptr)},  // of health.energy_growth (J; J/m in 2-D)
+      {"checkpoint", last_checkpoint},   // the state checkpoint.h5 holds (null: none written)
+      {"resumed_from", resumed_from},    // where each `iqmpm resume` of this run started
       {"scene", scene.document},
   };
   statistics.write(summary, sim.has_solids());

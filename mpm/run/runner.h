@@ -1,11 +1,13 @@
-// Runs a scene to its end time: the time loop, probes, frames, summary (the output
-// contract of benchmarks.md). A numerical failure ends the run with status != "ok".
+// Runs a scene to its end time: the time loop, probes, frames, checkpoints, summary (the
+// output contract of benchmarks.md). A numerical failure ends the run with status != "ok".
 #pragma once
 
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "io/state_archive.h"
 #include "scene/scene.h"
 
 namespace iqmpm {
@@ -20,6 +22,9 @@ struct RunOptions {
   std::string out_dir;  // empty: no files written (tests)
   std::function<void(const RunProgress&)> on_progress;  // called after every step
   std::vector<long> dump_steps;  // steps (1-based) whose pressure system is written to out_dir
+  // Continue from this checkpoint of a run of the same scene in out_dir (iqmpm resume;
+  // run/resume.h); null: start from the seeded particles.
+  std::shared_ptr<const StateArchive> resume;
 };
 
 struct RunResult {

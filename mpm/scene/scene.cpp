@@ -199,6 +199,28 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
   scene.write_pressure_fields = root.boolean(
       "write_pressure_fields", false,
       "write every step's solved pressure fields as dense grid tensors to pressure_fields.h5 (MPMNet's dataset, mpmnet/README.md)");
+  {
+    JsonReader checkpoint = root.object("checkpoint", "when checkpoint.h5 is written, from which `iqmpm resume` continues "
+                                                      "(docs/method.md#checkpoints); always at the end and on SIGINT / SIGTERM");
+    scene.checkpoint.every_frames = checkpoint.integer("every_frames", scene.checkpoint.every_frames, 0, 1000000,
+                                                       "also after every this many frames; 0 = not by frames");
+    scene.checkpoint.every_minutes = checkpoint.number("every_minutes", scene.checkpoint.every_minutes, 0, kInf,
+                                                       "also after this much wall time (minutes) since the last one; 0 = not by time");
+    checkpoint.finish();
+  }
+  {
+    JsonReader health = root.object("health", "checks after every step; a step that fails one, or fails in a solver, is "
+                                              "taken again with half the dt (docs/method.md#health-checks)");
+    scene.health.checks = health.boolean("checks", scene.health.checks,
+                                         "check every step's energy balance and each body's integrity (false: only the solvers' own checks)");
+    scene.health.energy_growth = health.number("energy_growth", scene.health.energy_growth, 0, kInf,
+                                               "largest growth of kinetic + gravitational + elastic energy in one step, as a "
+                                               "fraction of the run's energy scale (its potential energy above the floor and "
+                                               "kinetic energy at the start)");
+    scene.health.max_retries = health.integer("max_retries", scene.health.max_retries, 0, 20,
+                                              "halvings of dt for a step that fails a check or a solver, before the run stops (exit 3)");
+    health.finish();
+  }
   scene.cfl = root.number("cfl", 0.5, 0, 1, "CFL number: dt = cfl dx / max(particle speed, sqrt(|g| dx))", true);
   scene.dt_min = root.number("dt_min", 1e-7, 0, kInf, "smallest time step (s); a smaller one needed stops the run", true);
   scene.dt_max = root.number("dt_max", 1e-2, 0, kInf, "largest time step (s)", true);
@@ -327,7 +349,7 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
     solver.finish();
   }
   {
-    JsonReader experimental = root.object("experimental", "options kept for studies, used by no validated scene (docs/method.md#experimental-options)");
+    JsonReader experimental = root.object("experimental", "options kept for studies; a validated scene uses one only where docs/method.md#experimental-options says why");
     auto& e = scene.experimental;
     e.position_correction = experimental.number(
         "position_correction", e.position_correction, 0, 1,

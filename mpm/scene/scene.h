@@ -105,6 +105,21 @@ struct ExperimentalSpec {
   int max_contact_rounds = 8;                  // unilateral interface: pressure solves per step at most
 };
 
+// When a run writes checkpoint.h5 (docs/method.md#checkpoints); it always does at its end
+// and on SIGINT / SIGTERM.
+struct CheckpointSpec {
+  int every_frames = 10;     // 0: not by frames
+  Real every_minutes = 30;   // of wall time; 0: not by time
+};
+
+// Health checks after every step and the retries of a step that fails one
+// (diagnostics/health.h, docs/method.md#health-checks).
+struct HealthSpec {
+  bool checks = true;
+  Real energy_growth = 0.05;  // largest growth of the mechanical energy in a step, of the run's energy scale
+  int max_retries = 3;        // halvings of dt before the run stops
+};
+
 struct SceneSpec {
   std::string name, description;
   int dim = 2;
@@ -118,6 +133,8 @@ struct SceneSpec {
   Real frame_rate = 0;     // output frames per second of simulated time; 0: first and last only
   bool write_frames = true;
   bool write_pressure_fields = false;  // pressure_fields.h5: MPMNet's dataset (io/pressure_field_writer.h)
+  CheckpointSpec checkpoint;
+  HealthSpec health;
   Real cfl = 0.5;
   Real dt_min = 1e-7, dt_max = 1e-2;
   std::array<std::array<bool, 2>, 3> slip_walls{};  // [axis][side]: a free-slip wall (else no wall)

@@ -18,6 +18,7 @@
 #include "grid/grid.h"
 #include "interface/interface_quadrature.h"
 #include "interface/unilateral_contact.h"
+#include "io/state_archive.h"
 #include "linear_solver/linear_solver.h"
 #include "materials/solid_material.h"
 #include "particles/particles.h"
@@ -67,8 +68,23 @@ class Simulation {
   // policy (CFL, dt_min, dt_max, frame times) is the caller's: run/time_step_policy.h.
   void step(Real dt);
 
+  // The state one step hands to the next, for checkpoints (simulation/state.h): the
+  // particles, the time, the warm start's history, the unilateral interface's released
+  // cells, and the stage timings. Every other member is rebuilt by each step.
+  void save_state(StateArchive& archive) const;
+  // Replaces the seeded state with a checkpoint's; InputError when it does not belong to
+  // this scene (dimension, particle counts).
+  void restore_state(const StateArchive& archive);
+
+  // The same state kept in memory before a step, and brought back when the step failed
+  // or failed a health check, so that the runner can take it again with a smaller dt. The
+  // warm start keeps the failed attempt's solution (only the first guess of the retry).
+  void keep_step_start();
+  void return_to_step_start();
+
   const Grid<dim>& grid() const { return grid_; }
   const SceneSpec& scene() const { return scene_; }
+  const std::vector<SolidMaterial<dim>>& materials() const { return materials_; }  // per body
   const StepOptions& options() const { return options_; }
   const Vec<dim>& gravity() const { return gravity_; }
   int up_axis() const { return up_axis_; }
@@ -201,6 +217,11 @@ class Simulation {
 
   StageTimer timer_;
   StepStats last_;
+  struct StepStart {
+    Particles<dim> fluid, solid;
+    Real time = 0;
+    std::vector<std::uint8_t> released_h_cells, released_p_cells;
+  } step_start_;
 };
 
 extern template class Simulation<2>;

@@ -1,3 +1,4 @@
+#include "simulation/state.h"
 #include "simulation/time_step.h"
 
 namespace iqmpm {

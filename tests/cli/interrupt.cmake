@@ -1,9 +1,14 @@
 # SIGTERM ends a run cleanly: exit 143, summary.json with status "interrupted by SIGTERM",
-# and metrics.csv with the rows up to the interruption (written every frame as the run goes).
+# metrics.csv with the rows up to the interruption (written every frame as the run goes),
+# and checkpoint.h5, from which `iqmpm resume` finishes the run exactly as an uninterrupted
+# one (metrics.csv the same bytes), wherever the signal fell.
 set(out ${WORK}/interrupt_out)
-file(REMOVE_RECURSE ${out})
+set(straight ${WORK}/interrupt_straight)
+file(REMOVE_RECURSE ${out} ${straight})
+set(shell_options "--quiet --threads 1 --set write_frames=false --set end_time=1")
+separate_arguments(options UNIX_COMMAND "${shell_options}")
 execute_process(
-  COMMAND sh -c "${IQMPM} run ${SOURCE}/benchmarks/dam_break/dam_break.json --out ${out} --quiet --threads 1 --set write_frames=false --set end_time=5 & pid=$!; sleep 4; kill -TERM $pid; wait $pid"
+  COMMAND sh -c "${IQMPM} run ${SOURCE}/benchmarks/dam_break/dam_break.json --out ${out} ${shell_options} & pid=$!; sleep 2; kill -TERM $pid; wait $pid"
   RESULT_VARIABLE code ERROR_VARIABLE err)
 if(NOT code EQUAL 143)
   message(FATAL_ERROR "expected exit code 143, got ${code}: ${err}")
@@ -13,8 +18,23 @@ string(JSON status GET "${summary}" status)
 if(NOT status MATCHES "^interrupted by SIGTERM at t = ")
   message(FATAL_ERROR "summary.json status: ${status}")
 endif()
+string(JSON checkpoint_step GET "${summary}" checkpoint step)
+string(JSON steps GET "${summary}" steps)
+if(NOT checkpoint_step EQUAL steps OR NOT EXISTS ${out}/checkpoint.h5)
+  message(FATAL_ERROR "no checkpoint of the interrupted step ${steps} (summary.json checkpoint.step = ${checkpoint_step})")
+endif()
 file(STRINGS ${out}/metrics.csv rows)
 list(LENGTH rows count)
 if(count LESS 3)
   message(FATAL_ERROR "metrics.csv has ${count} lines")
+endif()
+execute_process(COMMAND ${IQMPM} resume ${out} --quiet --threads 1 RESULT_VARIABLE code ERROR_VARIABLE err)
+execute_process(COMMAND ${IQMPM} run ${SOURCE}/benchmarks/dam_break/dam_break.json --out ${straight} ${options}
+                RESULT_VARIABLE code2 ERROR_VARIABLE err2)
+if(NOT code EQUAL 0 OR NOT code2 EQUAL 0)
+  message(FATAL_ERROR "resume after SIGTERM: exit ${code} (${err}); uninterrupted run: exit ${code2} (${err2})")
+endif()
+execute_process(COMMAND ${CMAKE_COMMAND} -E compare_files ${straight}/metrics.csv ${out}/metrics.csv RESULT_VARIABLE differ)
+if(differ)
+  message(FATAL_ERROR "the run resumed after SIGTERM at step ${steps} differs from the uninterrupted run (metrics.csv)")
 endif()

@@ -1,0 +1,125 @@
+// Health checks after every step (docs/method.md#health-checks): cheap physics a right
+// step cannot violate, so that a run that ends `ok` is right by its own checks. A step
+// that fails one is taken again from its start with half the dt (run/runner.cpp) before
+// the run stops with the diagnosis.
+//   - Energy: kinetic + gravitational + elastic energy of the particles must not grow.
+//     Slip walls do no work, the projection and implicit Euler only dissipate, so growth
+//     beyond round-off and transfer error is the signature of an unstable step.
+//   - Integrity: a body stays in as many pieces as it was seeded in. MPM's numerical
+//     fracture (particles drifting a whole cell apart) is a body that is under-resolved
+//     for how it deforms, never a result.
+#pragma once
+
+#include <fmt/format.h>
+
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "simulation/simulation.h"
+
+namespace iqmpm {
+
+// Kinetic, gravitational (relative to the origin) and elastic energy of all particles
+// (J; J/m in 2-D).
+template <int dim>
+Real mechanical_energy(const Simulation<dim>& sim) {
+  const Vec<dim> g = sim.gravity();
+  auto motion = [&](const Particles<dim>& p) {
+    Real sum = 0;
+    const int n = int(p.size());
+#pragma omp parallel for reduction(+ : sum) schedule(static)
+    for (int i = 0; i < n; ++i) sum += p.mass[i] * (Real(0.5) * p.velocity[i].squaredNorm() - g.dot(p.position[i]));
+    return sum;
+  };
+  const Particles<dim>& solid = sim.solid();
+  Real elastic = 0;
+  const int n = int(solid.size());
+#pragma omp parallel for reduction(+ : elastic) schedule(static)
+  for (int i = 0; i < n; ++i)
+    elastic += solid.initial_volume[i] * sim.materials()[solid.body[i]].energy_density(solid.deformation_gradient[i]);
+  return motion(sim.fluid()) + motion(solid) + elastic;
+}
+
+// The number of pieces of each body: its particles' dual cells, connected across faces,
+// edges and corners (a piece is apart once a whole cell lies between).
+template <int dim>
+std::vector<int> body_pieces(const Simulation<dim>& sim) {
+  const auto cells = sim.grid().dual_cells();
+  const Particles<dim>& solid = sim.solid();
+  std::vector<int> pieces(sim.materials().size(), 0);
+  std::vector<int> body_of_cell(cells.size(), -1);  // -1 empty; a cell shared by two bodies keeps one (rare, harmless)
+  for (std::size_t p = 0; p < solid.size(); ++p)
+    body_of_cell[cells.index(dual_cell_of<dim>(sim.grid().to_cells(solid.position[p])))] = solid.body[p];
+  std::vector<int> stack;
+  for (int start = 0; start < cells.size(); ++start) {
+    const int body = body_of_cell[start];
+    if (body < 0) continue;
+    ++pieces[body];
+    body_of_cell[start] = -1;
+    stack.assign(1, start);
+    while (!stack.empty()) {
+      const IVec<dim> c = cells.multi_index(stack.back());
+      stack.pop_back();
+      for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
+        const IVec<dim> n = c + offset - IVec<dim>::Ones();
+        if (!cells.contains(n)) return;
+        const int k = cells.index(n);
+        if (body_of_cell[k] != body) return;
+        body_of_cell[k] = -1;
+        stack.push_back(k);
+      });
+    }
+  }
+  return pieces;
+}
+
+template <int dim>
+class HealthChecks {
+ public:
+  // energy_growth: the largest growth of the mechanical energy in one step, as a fraction
+  // of the run's energy scale (the potential energy above the domain's floor and the
+  // kinetic energy at the start).
+  HealthChecks(const Simulation<dim>& sim, Real energy_growth)
+      : energy_growth_(energy_growth), seeded_pieces_(body_pieces(sim)), energy_(mechanical_energy(sim)) {
+    const Vec<dim> g = sim.gravity();
+    Real floor = 0;  // the lowest potential energy per unit mass the domain allows
+    for (int a = 0; a < dim; ++a) floor += -g[a] * (g[a] < 0 ? sim.grid().origin[a] : sim.grid().origin[a] + sim.grid().dx * sim.grid().cells[a]);
+    Real scale = 0;
+    for (const Particles<dim>* p : {&sim.fluid(), &sim.solid()})
+      for (std::size_t i = 0; i < p->size(); ++i)
+        scale += p->mass[i] * (Real(0.5) * p->velocity[i].squaredNorm() - g.dot(p->position[i]) - floor);
+    energy_scale_ = std::max(scale, std::numeric_limits<Real>::min());
+  }
+
+  // The diagnosis of the step just taken; empty when it passes. `accept` then makes its
+  // state the next step's reference.
+  std::string violation(const Simulation<dim>& sim) {
+    candidate_energy_ = mechanical_energy(sim);
+    const Real growth = (candidate_energy_ - energy_) / energy_scale_;
+    if (growth > energy_growth_)
+      return fmt::format("the step created mechanical energy: {:.3g} J ({:.3g} of the run's energy scale {:.3g} J; "
+                         "accepted: at most health.energy_growth = {:.3g})", candidate_energy_ - energy_, growth,
+                         energy_scale_, energy_growth_);
+    const std::vector<int> pieces = body_pieces(sim);
+    for (std::size_t b = 0; b < pieces.size(); ++b)
+      if (pieces[b] > seeded_pieces_[b])
+        return fmt::format("solid {} came apart: {} pieces (seeded as {}), a whole cell between them (numerical fracture: "
+                           "the body deforms more than its particles resolve; try a smaller dt_max or cfl, a larger "
+                           "particles_per_axis or a stiffer material)", sim.scene().solids[b].name.empty() ? std::to_string(b) : "'" + sim.scene().solids[b].name + "'",
+                           pieces[b], seeded_pieces_[b]);
+    return {};
+  }
+  void accept() { energy_ = candidate_energy_; }
+  // The next step's reference from the state as it is (a run resumed from a checkpoint).
+  void measure_reference(const Simulation<dim>& sim) { energy_ = mechanical_energy(sim); }
+  Real energy() const { return energy_; }
+  Real energy_scale() const { return energy_scale_; }
+
+ private:
+  Real energy_growth_;
+  std::vector<int> seeded_pieces_;
+  Real energy_ = 0, candidate_energy_ = 0, energy_scale_ = 1;
+};
+
+}  // namespace iqmpm
