@@ -1,6 +1,6 @@
 // iqmpm: command-line front end of the IQ-MPM solver.
-//   iqmpm run SCENE [--out DIR] [--set key=value ...] [--threads N] [--quiet]
-//   iqmpm check SCENE [--set key=value ...]
+//   iqmpm run SCENE [--out DIR] [--set key=value ...] [--threads N] [--quiet] [--max-memory GIB] [--max-output GIB]
+//   iqmpm check SCENE [--set key=value ...] [--max-memory GIB] [--max-output GIB]
 //   iqmpm keys            (reference of every scene key, default and accepted values)
 // Exit codes: 0 ok, 2 bad input, 3 numerical failure (diagnosis in summary.json),
 // 130 / 143 interrupted by SIGINT / SIGTERM (outputs up to the interruption written).
@@ -19,6 +19,7 @@
 #include "core/log.h"
 #include "scene/scene.h"
 #include "run/interrupt.h"
+#include "run/resource_estimate.h"
 #include "run/runner.h"
 
 namespace {
@@ -107,6 +108,14 @@ int main(int argc, char** argv) {
   int threads = 0;
   bool quiet = false;
   std::vector<long> dump_steps;
+  double max_memory_gib = default_memory_limit() / kGiB, max_output_gib = 20;
+  // Both commands refuse a scene past the limits (run/resource_estimate.h).
+  auto add_limits = [&](CLI::App* command) {
+    command->add_option("--max-memory", max_memory_gib, "refuse a scene whose estimated peak memory passes this (GiB; default 3/4 of physical memory)")
+        ->check(CLI::PositiveNumber)->capture_default_str();
+    command->add_option("--max-output", max_output_gib, "refuse a run whose estimated output passes this (GiB)")
+        ->check(CLI::PositiveNumber)->capture_default_str();
+  };
 
   auto* run = app.add_subcommand("run", "run a scene to its end time, writing frames, metrics.csv and summary.json");
   run->add_option("scene", scene_path, "scene file (JSON); `iqmpm keys` lists every key")->required()->check(CLI::ExistingFile);
@@ -118,10 +127,12 @@ int main(int argc, char** argv) {
                   "write the pressure system of these steps (1-based) to the output folder: system_stepN.mtx (Matrix Market), "
                   "rhs_stepN.mtx and layout_stepN.json (blocks, dual cell of each unknown), for benchmarks/solvers")
       ->check(CLI::PositiveNumber)->delimiter(',');
+  add_limits(run);
 
   auto* check = app.add_subcommand("check", "validate a scene file (and --set overrides) without running it");
   check->add_option("scene", scene_path, "scene file (JSON)")->required()->check(CLI::ExistingFile);
   check->add_option("--set,-s", overrides, "override a scene key (repeatable)");
+  add_limits(check);
 
   auto* keys = app.add_subcommand("keys", "print every scene key with its type, default, accepted values and meaning");
 
@@ -153,15 +164,19 @@ int main(int argc, char** argv) {
       return 0;
     }
     const SceneSpec scene = load_scene(scene_path, overrides);
+    // Before anything is allocated or the output folder exists.
+    const ResourceEstimate estimate = estimate_resources(scene);
+    check_resources(estimate, {max_memory_gib * kGiB, max_output_gib * kGiB});
     if (*check) {
-      fmt::print("{}: valid ({}-D, dx = {:g} m, end_time = {:g} s, {} probes)\n", scene_path, scene.dim, scene.dx,
-                 scene.end_time, scene.probes.size());
+      fmt::print("{}: valid ({}-D, dx = {:g} m, end_time = {:g} s, {} probes)\n{}\n", scene_path, scene.dim, scene.dx,
+                 scene.end_time, scene.probes.size(), describe(estimate));
       return 0;
     }
     if (threads > 0) omp_set_num_threads(threads);
     spdlog::info("iqmpm {}: scene '{}' ({}-D, dx = {:g} m, end_time = {:g} s), {} threads, output in {}", IQMPM_VERSION,
                  scene.name.empty() ? scene_path : scene.name, scene.dim, scene.dx, scene.end_time, omp_get_max_threads(),
                  out_dir);
+    spdlog::info("{}", describe(estimate));
     ProgressReporter progress(quiet);
     RunOptions options;
     options.out_dir = out_dir;
