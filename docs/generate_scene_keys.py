@@ -35,7 +35,10 @@ HEADER = f"""# Scene keys
 
 A scene is a JSON file. The solver fills every default in one place
 (`mpm/scene/scene.cpp`) and rejects an unknown key, a wrong type or a value out of range
-with a message that names the key (exit code 2, nothing written). Override any key on the
+with a message that names the key (exit code 2, nothing written), and so are a scene past
+the solver's 32-bit indices and a run whose estimated peak memory or output passes
+`--max-memory` or `--max-output` (`iqmpm check` prints both estimates;
+[method.md](method.md#resource-limits)). Override any key on the
 command line with `--set a.b=value` (the value is parsed as JSON, else taken as a string;
 array entries by index: `--set fluid.shapes.0.max=[0.2,0.3]`). `key[]` stands for every
 entry of an array. Array lengths shown are those of a 2-D scene; in 3-D they have 3 entries.

@@ -1,7 +1,7 @@
 // iqmpm: command-line front end of the IQ-MPM solver.
-//   iqmpm run SCENE [--out DIR] [--set key=value ...] [--threads N] [--quiet]
-//   iqmpm resume OUT_DIR [--set end_time=T ...] [--threads N] [--quiet]
-//   iqmpm check SCENE [--set key=value ...]
+//   iqmpm run SCENE [--out DIR] [--set key=value ...] [--threads N] [--quiet] [--max-memory GIB] [--max-output GIB]
+//   iqmpm resume OUT_DIR [--set end_time=T ...] [--threads N] [--quiet] [--max-memory GIB] [--max-output GIB]
+//   iqmpm check SCENE [--set key=value ...] [--max-memory GIB] [--max-output GIB]
 //   iqmpm keys            (reference of every scene key, default and accepted values)
 // Exit codes: 0 ok, 2 bad input, 3 numerical failure (diagnosis in summary.json),
 // 130 / 143 interrupted by SIGINT / SIGTERM (outputs up to the interruption and checkpoint.h5
@@ -21,6 +21,7 @@
 #include "core/log.h"
 #include "scene/scene.h"
 #include "run/interrupt.h"
+#include "run/resource_estimate.h"
 #include "run/resume.h"
 #include "run/runner.h"
 
@@ -110,6 +111,14 @@ int main(int argc, char** argv) {
   int threads = 0;
   bool quiet = false;
   std::vector<long> dump_steps;
+  double max_memory_gib = default_memory_limit() / kGiB, max_output_gib = 20;
+  // Both commands refuse a scene past the limits (run/resource_estimate.h).
+  auto add_limits = [&](CLI::App* command) {
+    command->add_option("--max-memory", max_memory_gib, "refuse a scene whose estimated peak memory passes this (GiB; default 3/4 of physical memory)")
+        ->check(CLI::PositiveNumber)->capture_default_str();
+    command->add_option("--max-output", max_output_gib, "refuse a run whose estimated output passes this (GiB)")
+        ->check(CLI::PositiveNumber)->capture_default_str();
+  };
 
   auto* run = app.add_subcommand("run", "run a scene to its end time, writing frames, metrics.csv and summary.json");
   run->add_option("scene", scene_path, "scene file (JSON); `iqmpm keys` lists every key")->required()->check(CLI::ExistingFile);
@@ -121,6 +130,7 @@ int main(int argc, char** argv) {
                   "write the pressure system of these steps (1-based) to the output folder: system_stepN.mtx (Matrix Market), "
                   "rhs_stepN.mtx and layout_stepN.json (blocks, dual cell of each unknown), for benchmarks/solvers")
       ->check(CLI::PositiveNumber)->delimiter(',');
+  add_limits(run);
 
   auto* resume = app.add_subcommand("resume", "continue a run from OUT_DIR/checkpoint.h5 in the same folder (written every "
                                               "checkpoint.every_frames frames, on SIGINT / SIGTERM and at the end)");
@@ -130,10 +140,12 @@ int main(int argc, char** argv) {
   resume->add_option("--threads,-j", threads, "OpenMP threads (0: all cores; at most 1024); the checkpoint's count repeats "
                                               "the uninterrupted run bit for bit")->check(CLI::Range(0, 1024))->capture_default_str();
   resume->add_flag("--quiet,-q", quiet, "no progress output");
+  add_limits(resume);
 
   auto* check = app.add_subcommand("check", "validate a scene file (and --set overrides) without running it");
   check->add_option("scene", scene_path, "scene file (JSON)")->required()->check(CLI::ExistingFile);
   check->add_option("--set,-s", overrides, "override a scene key (repeatable)");
+  add_limits(check);
 
   auto* keys = app.add_subcommand("keys", "print every scene key with its type, default, accepted values and meaning");
 
@@ -167,9 +179,12 @@ int main(int argc, char** argv) {
     std::shared_ptr<const StateArchive> checkpoint;
     if (*resume) checkpoint = read_checkpoint(out_dir);
     const SceneSpec scene = checkpoint ? scene_to_resume(*checkpoint, overrides) : load_scene(scene_path, overrides);
+    // Before anything is allocated or the output folder exists.
+    const ResourceEstimate estimate = estimate_resources(scene);
+    check_resources(estimate, {max_memory_gib * kGiB, max_output_gib * kGiB});
     if (*check) {
-      fmt::print("{}: valid ({}-D, dx = {:g} m, end_time = {:g} s, {} probes)\n", scene_path, scene.dim, scene.dx,
-                 scene.end_time, scene.probes.size());
+      fmt::print("{}: valid ({}-D, dx = {:g} m, end_time = {:g} s, {} probes)\n{}\n", scene_path, scene.dim, scene.dx,
+                 scene.end_time, scene.probes.size(), describe(estimate));
       return 0;
     }
     if (threads > 0) omp_set_num_threads(threads);
@@ -177,6 +192,7 @@ int main(int argc, char** argv) {
                  checkpoint ? fmt::format("resuming at t = {:.6g} s", checkpoint->record.at("run").at("t").get<double>()) : "scene",
                  scene.name.empty() ? scene_path : scene.name, scene.dim, scene.dx, scene.end_time, omp_get_max_threads(),
                  out_dir);
+    spdlog::info("{}", describe(estimate));
     ProgressReporter progress(quiet);
     RunOptions options;
     options.out_dir = out_dir;

@@ -109,6 +109,7 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
   Json resumed_from = Json::array();  // where each resume started
   RunStatistics statistics;
   long dt_retries = 0;
+  StageTimer checks_timer;  // the health checks' cost (a stage of summary.json's stage_seconds)
   // Of the seeded particles too (their pieces, the energy scale).
   std::unique_ptr<HealthChecks<dim>> health;
   if (scene.health.checks) health = std::make_unique<HealthChecks<dim>>(sim, scene.health.energy_growth);
@@ -201,10 +202,14 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
       // start with half the dt, up to health.max_retries times (docs/method.md#health-checks).
       for (int attempt = 0;; ++attempt) {
         const bool may_retry = attempt < scene.health.max_retries && dt / 2 >= scene.dt_min;
-        if (may_retry) sim.keep_step_start();
+        if (may_retry) {
+          auto scope = checks_timer.scope("health checks");
+          sim.keep_step_start();
+        }
         std::string problem;
         try {
           sim.step(dt);
+          auto scope = checks_timer.scope("health checks");
           if (health) problem = health->violation(sim);
         } catch (const NumericalFailure& failure) {
           problem = failure.what();
@@ -267,6 +272,7 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
   const double final_particle_volume = fluid_particle_volume(sim);
   Json stage_seconds = Json::object();
   for (const auto& [stage, seconds] : sim.timer().stages()) stage_seconds[stage] = seconds;
+  if (checks_timer.total() > 0) stage_seconds["health checks"] = checks_timer.total();
   const long steps = statistics.steps();
   Json summary = {
       {"status", status},

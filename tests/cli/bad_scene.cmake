@@ -56,3 +56,11 @@ execute_process(COMMAND ${IQMPM} run ${scene} -q --out ${WORK}/rerun --set end_t
 if(NOT code EQUAL 0 OR EXISTS ${WORK}/rerun/frames OR NOT EXISTS ${WORK}/rerun/summary.json)
   message(FATAL_ERROR "write_frames = false: exit ${code}, frames folder present or no summary")
 endif()
+# A solid reaching past the domain is seeded only inside it: a warning naming the shape
+# (the scene is still valid). Overlapping bodies and self-intersecting polygons are errors
+# (tests/scene/test_scene.cpp).
+file(WRITE ${WORK}/clipped_solid.json "{\"dim\": 2, \"domain\": {\"min\": [0,0], \"max\": [1,1]}, \"dx\": 0.1, \"end_time\": 1, \"solids\": [{\"youngs_modulus\": 1e6, \"poisson_ratio\": 0.3, \"shapes\": [{\"type\": \"box\", \"min\": [0.8,0.2], \"max\": [1.2,0.4]}]}]}")
+execute_process(COMMAND ${IQMPM} check ${WORK}/clipped_solid.json RESULT_VARIABLE code ERROR_VARIABLE err OUTPUT_VARIABLE out)
+if(NOT code EQUAL 0 OR NOT err MATCHES "warning.*scene key 'solids\\[0\\].shapes\\[0\\]': reaches 0.2 m past the domain's x\\+ side.*clipped")
+  message(FATAL_ERROR "clipped solid: exit ${code}, stderr: ${err}")
+endif()

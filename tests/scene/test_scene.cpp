@@ -109,6 +109,35 @@ TYPED_TEST(SceneTest, OverridesReachNestedKeysAndArrays) {
   EXPECT_THROW(apply_override(doc, "novalue"), InputError);
 }
 
+// Grid layouts and particles are indexed by int: a dx whose seeding lattice (cells x
+// particles_per_axis^dim) passes 2^31 is refused naming dx, not left to wrap into "no
+// particle was seeded" (the dam break at dx = 2e-5); one just below is read.
+TYPED_TEST(SceneTest, SpacingBeyondTheIndexRangeIsRefused) {
+  constexpr int dim = TestFixture::dim;
+  Json doc = this->valid_scene();
+  doc["dx"] = dim == 2 ? 1.0 / 25000 : 1.0 / 1000;  // 2.5e9 and 8e9 lattice points
+  expect_rejected(doc, {"'dx'", "32-bit indices", "accepted: dx >="});
+  doc["dx"] = dim == 2 ? 1.0 / 20000 : 1.0 / 640;  // 1.6e9 and 2.1e9
+  EXPECT_NO_THROW(read_scene(doc));
+  doc["particles_per_axis"] = 3;  // 3.6e9 and 7.1e9
+  expect_rejected(doc, {"'dx'", "particles_per_axis = 3"});
+}
+
+// The even-odd rule would fill a self-intersecting polygon otherwise than drawn.
+TEST(SceneTest, SelfIntersectingPolygonIsRefused) {
+  Json doc = testing::fluid_box_scene(2, 0.1, {0.5, 0.5}, {1.0, 1.0});
+  auto polygon = [](std::vector<Real> vertices) { return Json{{"type", "polygon"}, {"vertices", vertices}}; };
+  doc["fluid"]["shapes"][0] = polygon({0.1, 0.1, 0.4, 0.4, 0.4, 0.1, 0.1, 0.4});  // a bow tie: edges 0 and 2 cross
+  expect_rejected(doc, {"'fluid.shapes[0].vertices'", "intersects itself", "edge 0", "edge 2", "simple polygon"});
+  doc["fluid"]["shapes"][0] = polygon({0.1, 0.1, 0.5, 0.1, 0.3, 0.1, 0.3, 0.4});  // edge 1 folds back along edge 0
+  expect_rejected(doc, {"'fluid.shapes[0].vertices'", "intersects itself"});
+  doc["fluid"]["shapes"][0] = polygon({0.1, 0.1, 0.5, 0.1, 0.5, 0.2, 0.2, 0.2, 0.2, 0.5, 0.1, 0.5});  // an L: concave, simple
+  EXPECT_NO_THROW(read_scene(doc));
+  doc["solids"] = Json::array({{{"youngs_modulus", 1e6}, {"poisson_ratio", 0.3},
+                                {"shapes", Json::array({polygon({0.6, 0.6, 0.9, 0.9, 0.9, 0.6, 0.6, 0.9})})}}});
+  expect_rejected(doc, {"'solids[0].shapes[0].vertices'", "intersects itself"});
+}
+
 TEST(SceneTest, EveryKeyIsDocumented) {
   const auto docs = document_scene_keys();
   auto documented = [&](const std::string& path) {
@@ -200,6 +229,24 @@ TYPED_TEST(SceneSolidTest, DuplicateSolidNamesAreRejected) {
   doc["solids"][0]["name"] = "gate";
   doc["solids"][1]["name"] = "gate";
   expect_rejected(doc, {"'solids[1].name' = \"gate\"", "solids[0]"});
+}
+
+// Two bodies seeded into the same space are refused naming both shapes; bodies that touch,
+// and overlapping shapes of one body, are accepted.
+TYPED_TEST(SceneSolidTest, OverlappingBodiesAreRefused) {
+  using testing::xyz;
+  constexpr int dim = TestFixture::dim;
+  Json doc = this->solid_scene();
+  doc["solids"].push_back(doc["solids"][0]);
+  doc["solids"][1]["shapes"][0] = testing::box(xyz<dim>(0.3, 0.3, 0.3), xyz<dim>(0.6, 0.6, 0.6));
+  expect_rejected(doc, {"'solids[1].shapes[0]'", "overlaps solids[0].shapes[0]", "accepted"});
+  doc["solids"][1]["shapes"][0] = testing::box(xyz<dim>(0.4, 0.2, 0.2), xyz<dim>(0.6, 0.4, 0.4));  // touching at x = 0.4
+  EXPECT_NO_THROW(read_scene(doc));
+  Json sphere = {{"type", "sphere"}, {"centre", xyz<dim>(0.65, 0.3, 0.3)}, {"radius", 0.1}};  // inside the second box
+  doc["solids"][1]["shapes"].push_back(sphere);
+  EXPECT_NO_THROW(read_scene(doc));
+  doc["solids"][0]["shapes"].push_back(sphere);
+  expect_rejected(doc, {"'solids[1].shapes[0]'", "overlaps solids[0].shapes[1]"});
 }
 
 TYPED_TEST(SceneSolidTest, NoMaterialAtAllIsRejected) {
