@@ -130,6 +130,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--markdown", action="store_true", help="(default) Markdown table")
     i = sub.add_parser("index", help="rebuild OUT/index.md from OUT/*/entry.json")
     i.add_argument("--out", type=Path, default=REPO_ROOT / "report")
+
+    from compare import stress
+    stress.add_parser(sub)  # compare stress: the stability map (compare/stress.py)
     return parser
 
 
@@ -286,8 +289,21 @@ def _analyse(args: argparse.Namespace):
                 f"--benchmark {args.benchmark!r}: not a registered benchmark and not the scene of the runs given "
                 f"({', '.join(scenes) or 'none named'}); registered: {', '.join(sorted(REGISTRY))}")
     out_dir = args.out / bench.name
+    _require_reference_data(bench, _data_dir(args))
     result = analyse(bench, ours, foam, out_dir, Options(_data_dir(args), args.fluid_material))
     return result, out_dir
+
+
+def _require_reference_data(bench, data_dir: Path) -> None:
+    """A report without the data its benchmark compares against would drop those comparisons
+    silently: a missing reference file is bad input (exit 2) naming the file and the folder."""
+    from compare.registry import CsvReference
+
+    missing = sorted({ref.file for spec in bench.metrics for ref in spec.references
+                      if isinstance(ref, CsvReference) and not (Path(data_dir) / ref.file).is_file()})
+    if missing:
+        raise CompareError(f"reference data missing in {data_dir} (--data-dir, $IQMPM_DATA_DIR, else <repo>/data): "
+                           f"{', '.join(missing)}; the repository's data/ folder has them (data/README.md)")
 
 
 def _cmd_convergence(args: argparse.Namespace) -> int:
@@ -366,10 +382,17 @@ def _cmd_index(args: argparse.Namespace) -> int:
     return 1 if any(e.failed for e in entries) else 0
 
 
+def _cmd_stress(args: argparse.Namespace) -> int:
+    from compare.stress import command
+
+    return command(args)
+
+
 COMMANDS = {"validate": _cmd_validate, "series": _cmd_series, "fields": _cmd_fields,
             "convergence": _cmd_convergence, "cost": _cmd_cost, "report": _cmd_report,
             "registry": _cmd_registry, "index": _cmd_index, "docs": _cmd_docs,
-            "expected": _cmd_expected, "foam-reference": _cmd_foam_reference}
+            "expected": _cmd_expected, "foam-reference": _cmd_foam_reference,
+            "stress": _cmd_stress}
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -48,6 +48,7 @@ std::vector<int> body_pieces(const Simulation<dim>& sim) {
   const auto cells = sim.grid().dual_cells();
   const Particles<dim>& solid = sim.solid();
   std::vector<int> pieces(sim.materials().size(), 0);
+  if (solid.empty()) return pieces;
   std::vector<int> body_of_cell(cells.size(), -1);  // -1 empty; a cell shared by two bodies keeps one (rare, harmless)
   for (std::size_t p = 0; p < solid.size(); ++p)
     body_of_cell[cells.index(dual_cell_of<dim>(sim.grid().to_cells(solid.position[p])))] = solid.body[p];

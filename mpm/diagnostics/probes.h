@@ -40,6 +40,21 @@ class Probes {
   std::size_t size() const { return specs_.size(); }
   const std::string& name(std::size_t i) const { return specs_[i].name; }
   Real evaluate(const Simulation<dim>& sim, std::size_t i) const;
+  // The SI unit of probe i's values (forces and volumes per metre of depth in 2-D).
+  std::string unit(std::size_t i) const {
+    switch (specs_[i].type) {
+      case ProbeType::pressure: return "Pa";
+      case ProbeType::wall_force:
+      case ProbeType::solid_force: return dim == 2 ? "N/m" : "N";
+      case ProbeType::max_speed:
+      case ProbeType::solid_velocity: return "m/s";
+      case ProbeType::volume:
+      case ProbeType::particle_volume: return dim == 2 ? "m^2" : "m^3";
+      case ProbeType::hydrostatic_pressure_error: return "1";
+      case ProbeType::solid_angle: return "rad";
+      default: return "m";  // front, water_height, hydrostatic_head, displacement, solid_com
+    }
+  }
 
  private:
   // A material point followed by a displacement probe: recognised by the initial

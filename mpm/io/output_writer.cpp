@@ -2,6 +2,7 @@
 
 #include <hdf5.h>
 
+#include <cstring>
 #include <filesystem>
 #include <fmt/format.h>
 #include <fstream>
@@ -63,7 +64,19 @@ Json OutputWriter::frames_written() const {
 
 namespace {
 
-void write_dataset(hid_t file, const char* name, hid_t type, int rows, int cols, const void* data) {
+// A string attribute `units` on a dataset (SI; "1" for a dimensionless index).
+void write_units(hid_t set, const char* units) {
+  const hid_t text = H5Tcopy(H5T_C_S1);
+  H5Tset_size(text, std::strlen(units));
+  const hid_t space = H5Screate(H5S_SCALAR);
+  const hid_t attribute = H5Acreate2(set, "units", text, space, H5P_DEFAULT, H5P_DEFAULT);
+  H5Awrite(attribute, text, units);
+  H5Aclose(attribute);
+  H5Sclose(space);
+  H5Tclose(text);
+}
+
+void write_dataset(hid_t file, const char* name, hid_t type, int rows, int cols, const void* data, const char* units) {
   hsize_t dims[2] = {hsize_t(rows), hsize_t(cols)};
   hid_t space = H5Screate_simple(cols > 1 ? 2 : 1, dims, nullptr);
   // No modification times in the file: the same frame gives the same bytes (a resumed run
@@ -73,6 +86,7 @@ void write_dataset(hid_t file, const char* name, hid_t type, int rows, int cols,
   hid_t set = H5Dcreate2(file, name, type, space, H5P_DEFAULT, properties, H5P_DEFAULT);
   H5Pclose(properties);
   if (rows > 0) H5Dwrite(set, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data);
+  write_units(set, units);
   H5Dclose(set);
   H5Sclose(space);
 }
@@ -112,11 +126,11 @@ void OutputWriter::write_frame(const ParticleFrame& frame) {
   if (file < 0) throw InputError(fmt::format("cannot write '{}'", h5_path));
   std::vector<int> connectivity(frame.count);
   for (int i = 0; i < frame.count; ++i) connectivity[i] = i;
-  write_dataset(file, "/connectivity", H5T_NATIVE_INT, frame.count, 1, connectivity.data());
-  write_dataset(file, "/position", H5T_NATIVE_DOUBLE, frame.count, 3, frame.position.data());
-  write_dataset(file, "/velocity", H5T_NATIVE_DOUBLE, frame.count, 3, frame.velocity.data());
-  write_dataset(file, "/pressure", H5T_NATIVE_DOUBLE, frame.count, 1, frame.pressure.data());
-  write_dataset(file, "/material", H5T_NATIVE_INT, frame.count, 1, frame.material.data());
+  write_dataset(file, "/connectivity", H5T_NATIVE_INT, frame.count, 1, connectivity.data(), "1");
+  write_dataset(file, "/position", H5T_NATIVE_DOUBLE, frame.count, 3, frame.position.data(), "m");
+  write_dataset(file, "/velocity", H5T_NATIVE_DOUBLE, frame.count, 3, frame.velocity.data(), "m/s");
+  write_dataset(file, "/pressure", H5T_NATIVE_DOUBLE, frame.count, 1, frame.pressure.data(), "Pa");
+  write_dataset(file, "/material", H5T_NATIVE_INT, frame.count, 1, frame.material.data(), "1");
   H5Fclose(file);
   fs::rename(temporary, h5_path);
   write_file_atomically((frames_dir / (stem + ".xdmf")).string(),

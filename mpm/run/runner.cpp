@@ -309,6 +309,12 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
     final_metrics[result.columns[c]] = std::isfinite(v) ? Json(v) : Json(nullptr);
   }
   summary["final_metrics"] = final_metrics;
+  // The unit of every column of metrics.csv and steps.csv.
+  Json metric_units = {{"t", "s"}}, step_units = Json::object();
+  for (std::size_t i = 0; i < probes.size(); ++i) metric_units[probes.name(i)] = probes.unit(i);
+  const std::vector<const char*> step_column_units{"1", "s", "s", "1", "1", "1", "s", "s", "1", dim == 2 ? "J/m" : "J"};
+  for (std::size_t c = 0; c < step_columns.size(); ++c) step_units[step_columns[c]] = step_column_units[c];
+  summary["units"] = {{"metrics.csv", metric_units}, {"steps.csv", step_units}};
   result.ok = status == "ok";
   result.summary = summary;
   if (writer) {

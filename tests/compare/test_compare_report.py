@@ -141,3 +141,25 @@ def test_report_of_an_unknown_benchmark_is_bad_input(tmp_path, capsys):
     (ours / "summary.json").write_text(json.dumps(summary))
     assert main(["report", "--benchmark", "my_tank", "--ours", str(ours), "--out", str(out)]) == 0
     assert (out / "my_tank" / "report.md").is_file()
+
+
+def test_report_without_its_reference_data_is_bad_input(tmp_path, capsys):
+    """Missing reference files used to drop their comparisons with a note in the report and
+    exit 0 (issue 24): now exit 2, naming the files and the folder, and no report."""
+    import numpy as np
+
+    from compare_synth import write_metrics, write_summary
+
+    t = np.linspace(0.0, 0.6, 61)
+    run = tmp_path / "ours"
+    write_metrics(run, t, {"front_x": 0.057 + t, "height_left": np.zeros_like(t),
+                           "pressure_right": np.zeros_like(t), "volume": np.ones_like(t)})
+    write_summary(run, dx=0.004)
+    empty = tmp_path / "no_data"
+    empty.mkdir()
+    out = tmp_path / "report"
+    assert main(["report", "--benchmark", "dam_break", "--ours", str(run), "--out", str(out),
+                 "--data-dir", str(empty)]) == 2
+    err = capsys.readouterr().err
+    assert "reference data missing" in err and "koshizuka_oka_1996_surge_front_pysph.csv" in err
+    assert not (out / "dam_break" / "report.md").exists()
