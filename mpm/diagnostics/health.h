@@ -6,8 +6,8 @@
 //     Slip walls do no work, the projection and implicit Euler only dissipate, so growth
 //     beyond round-off and transfer error is the signature of an unstable step.
 //   - Integrity: a body stays in as many pieces as it was seeded in. MPM's numerical
-//     fracture (particles drifting a whole cell apart) is a body that is under-resolved
-//     for how it deforms, never a result.
+//     fracture (particles drifting several spacings apart) is a body that is
+//     under-resolved for how it deforms, never a result.
 #pragma once
 
 #include <fmt/format.h>
@@ -41,33 +41,42 @@ Real mechanical_energy(const Simulation<dim>& sim) {
   return motion(sim.fluid()) + motion(solid) + elastic;
 }
 
-// The number of pieces of each body: its particles' dual cells, connected across faces,
-// edges and corners (a piece is apart once a whole cell lies between).
+// The number of pieces of each body: its particles binned at their seeding spacing
+// (dx / particles_per_axis) over the solids' bounding box, bins connected across faces,
+// edges and corners. Seeded neighbours are one spacing apart, always in touching bins;
+// two particles more than 2 sqrt(dim) spacings apart never are, so a piece that far from
+// the rest (compare stress's torn body: 3 spacings) is always found.
 template <int dim>
-std::vector<int> body_pieces(const Simulation<dim>& sim) {
-  const auto cells = sim.grid().dual_cells();
+std::vector<int> body_pieces(const Simulation<dim>& sim, Real spacing) {
   const Particles<dim>& solid = sim.solid();
   std::vector<int> pieces(sim.materials().size(), 0);
   if (solid.empty()) return pieces;
-  std::vector<int> body_of_cell(cells.size(), -1);  // -1 empty; a cell shared by two bodies keeps one (rare, harmless)
-  for (std::size_t p = 0; p < solid.size(); ++p)
-    body_of_cell[cells.index(dual_cell_of<dim>(sim.grid().to_cells(solid.position[p])))] = solid.body[p];
+  IVec<dim> lo = IVec<dim>::Constant(std::numeric_limits<int>::max()), hi = IVec<dim>::Constant(std::numeric_limits<int>::min());
+  std::vector<IVec<dim>> bin(solid.size());
+  for (std::size_t p = 0; p < solid.size(); ++p) {
+    for (int a = 0; a < dim; ++a) bin[p][a] = int(std::floor((solid.position[p][a] - sim.grid().origin[a]) / spacing));
+    lo = lo.cwiseMin(bin[p]);
+    hi = hi.cwiseMax(bin[p]);
+  }
+  const GridLayout<dim> bins(lo, hi - lo + IVec<dim>::Ones());
+  std::vector<int> body_of_bin(bins.size(), -1);  // -1 empty; a bin shared by two bodies keeps one (rare, harmless)
+  for (std::size_t p = 0; p < solid.size(); ++p) body_of_bin[bins.index(bin[p])] = solid.body[p];
   std::vector<int> stack;
-  for (int start = 0; start < cells.size(); ++start) {
-    const int body = body_of_cell[start];
+  for (int start = 0; start < bins.size(); ++start) {
+    const int body = body_of_bin[start];
     if (body < 0) continue;
     ++pieces[body];
-    body_of_cell[start] = -1;
+    body_of_bin[start] = -1;
     stack.assign(1, start);
     while (!stack.empty()) {
-      const IVec<dim> c = cells.multi_index(stack.back());
+      const IVec<dim> c = bins.multi_index(stack.back());
       stack.pop_back();
       for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
         const IVec<dim> n = c + offset - IVec<dim>::Ones();
-        if (!cells.contains(n)) return;
-        const int k = cells.index(n);
-        if (body_of_cell[k] != body) return;
-        body_of_cell[k] = -1;
+        if (!bins.contains(n)) return;
+        const int k = bins.index(n);
+        if (body_of_bin[k] != body) return;
+        body_of_bin[k] = -1;
         stack.push_back(k);
       });
     }
@@ -82,7 +91,10 @@ class HealthChecks {
   // of the run's energy scale (the potential energy above the domain's floor and the
   // kinetic energy at the start).
   HealthChecks(const Simulation<dim>& sim, Real energy_growth)
-      : energy_growth_(energy_growth), seeded_pieces_(body_pieces(sim)), energy_(mechanical_energy(sim)) {
+      : energy_growth_(energy_growth),
+        spacing_(sim.grid().dx / sim.scene().particles_per_axis),
+        seeded_pieces_(body_pieces(sim, spacing_)),
+        energy_(mechanical_energy(sim)) {
     const Vec<dim> g = sim.gravity();
     Real floor = 0;  // the lowest potential energy per unit mass the domain allows
     for (int a = 0; a < dim; ++a) floor += -g[a] * (g[a] < 0 ? sim.grid().origin[a] : sim.grid().origin[a] + sim.grid().dx * sim.grid().cells[a]);
@@ -102,10 +114,10 @@ class HealthChecks {
       return fmt::format("the step created mechanical energy: {:.3g} J ({:.3g} of the run's energy scale {:.3g} J; "
                          "accepted: at most health.energy_growth = {:.3g})", candidate_energy_ - energy_, growth,
                          energy_scale_, energy_growth_);
-    const std::vector<int> pieces = body_pieces(sim);
+    const std::vector<int> pieces = body_pieces(sim, spacing_);
     for (std::size_t b = 0; b < pieces.size(); ++b)
       if (pieces[b] > seeded_pieces_[b])
-        return fmt::format("solid {} came apart: {} pieces (seeded as {}), a whole cell between them (numerical fracture: "
+        return fmt::format("solid {} came apart: {} pieces (seeded as {}), more than two particle spacings apart (numerical fracture: "
                            "the body deforms more than its particles resolve; try a smaller dt_max or cfl, a larger "
                            "particles_per_axis or a stiffer material)", sim.scene().solids[b].name.empty() ? std::to_string(b) : "'" + sim.scene().solids[b].name + "'",
                            pieces[b], seeded_pieces_[b]);
@@ -119,6 +131,7 @@ class HealthChecks {
 
  private:
   Real energy_growth_;
+  Real spacing_;  // of the seeded particles
   std::vector<int> seeded_pieces_;
   Real energy_ = 0, candidate_energy_ = 0, energy_scale_ = 1;
 };

@@ -99,12 +99,17 @@ TEST(CouplingTest, FloatingBlockFloatsAtItsArchimedesDraft) {
 // (experimental.solid_response = stiffness) it holds at dt 1 ms (measured 77.65 +- 3.1 N/m).
 // Bilateral interface (the gate scene's is unilateral; at 1 ms its active set chatters on
 // the downstream face: 5.9 solves a step, force 63-110 N/m).
-TEST(StiffGateTest, CarriesTheHydrostaticForce) {
+// The elastic gate at 12 GPa, bilateral, run 0.05 s with this solid response and dt_max.
+RunResult run_stiff_gate(const std::string& solid_response, const std::string& dt_max) {
   SceneSpec scene = load_scene(scene_path("elastic_gate/elastic_gate.json"),
                                {"end_time=0.05", "solids.0.youngs_modulus=12e9", "coupling.interface=\"bilateral\"",
-                                "experimental.solid_response=\"stiffness\"", "dt_max=0.001"});
+                                "experimental.solid_response=\"" + solid_response + "\"", "dt_max=" + dt_max});
   scene.frame_rate = 0;
-  const RunResult result = run_scene(scene, {});
+  return run_scene(scene, {});
+}
+
+TEST(StiffGateTest, CarriesTheHydrostaticForce) {
+  const RunResult result = run_stiff_gate("stiffness", "0.001");
   ASSERT_TRUE(result.ok) << result.summary.dump();
   EXPECT_EQ(result.summary["dt_retries"], 0);
   const double gate = 1000 * 9.81 * (0.14 * 0.079 - 0.079 * 0.079 / 2);  // 77.9 N/m
@@ -122,11 +127,7 @@ TEST(StiffGateTest, CarriesTheHydrostaticForce) {
 // does not help): the health checks must stop the run, naming the energy
 // (docs/method.md#solid-response).
 TEST(StiffGateTest, MassResponseIsStoppedForCreatingEnergy) {
-  SceneSpec scene = load_scene(scene_path("elastic_gate/elastic_gate.json"),
-                               {"end_time=0.05", "solids.0.youngs_modulus=12e9", "coupling.interface=\"bilateral\"",
-                                "experimental.solid_response=\"mass\"", "dt_max=0.00025"});
-  scene.frame_rate = 0;
-  const RunResult result = run_scene(scene, {});
+  const RunResult result = run_stiff_gate("mass", "0.00025");
   EXPECT_FALSE(result.ok);
   EXPECT_NE(result.summary["status"].get<std::string>().find("the step created mechanical energy"), std::string::npos)
       << result.summary["status"];
