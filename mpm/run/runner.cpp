@@ -82,6 +82,37 @@ std::vector<std::vector<double>> unflatten_rows(const std::vector<double>& flat,
   return rows;
 }
 
+// One step from t: a step that fails in a solver or fails a health check is taken again
+// from its start with half the dt, up to health.max_retries times and not below dt_min
+// (docs/method.md#health-checks); then NumericalFailure with the diagnosis. Returns the
+// dt taken; `retries` counts the halvings.
+template <int dim>
+double take_checked_step(Simulation<dim>& sim, HealthChecks<dim>* health, const SceneSpec& scene, double t, double dt,
+                         long step, long& retries, StageTimer& timer) {
+  for (int attempt = 0;; ++attempt) {
+    const bool may_retry = attempt < scene.health.max_retries && dt / 2 >= scene.dt_min;
+    if (may_retry) {
+      auto scope = timer.scope("health checks");
+      sim.keep_step_start();
+    }
+    std::string problem;
+    try {
+      sim.step(dt);
+      auto scope = timer.scope("health checks");
+      if (health) problem = health->violation(sim);
+    } catch (const NumericalFailure& failure) {
+      problem = failure.what();
+    }
+    if (problem.empty()) return dt;
+    if (!may_retry)
+      throw NumericalFailure(attempt == 0 ? problem : fmt::format("{} (after {} halvings of dt, at dt = {:.3g} s)", problem, attempt, dt));
+    logger()->warn("step {} at t = {:.6g} s with dt = {:.3g} s: {}; taking it again with dt = {:.3g} s", step, t, dt, problem, dt / 2);
+    sim.return_to_step_start();
+    dt /= 2;
+    ++retries;
+  }
+}
+
 template <int dim>
 RunResult run(const SceneSpec& scene, const RunOptions& options) {
   const auto wall_start = std::chrono::steady_clock::now();
@@ -198,31 +229,7 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
       const double next_stop = std::min(next_frame, end_time);
       double dt = policy.next_dt(sim, t, next_stop);
       const double solve_before = sim.timer().seconds("solve"), guess_before = sim.timer().seconds("warm start");
-      // A step that fails in a solver or fails a health check is taken again from its
-      // start with half the dt, up to health.max_retries times (docs/method.md#health-checks).
-      for (int attempt = 0;; ++attempt) {
-        const bool may_retry = attempt < scene.health.max_retries && dt / 2 >= scene.dt_min;
-        if (may_retry) {
-          auto scope = checks_timer.scope("health checks");
-          sim.keep_step_start();
-        }
-        std::string problem;
-        try {
-          sim.step(dt);
-          auto scope = checks_timer.scope("health checks");
-          if (health) problem = health->violation(sim);
-        } catch (const NumericalFailure& failure) {
-          problem = failure.what();
-        }
-        if (problem.empty()) break;
-        if (!may_retry)
-          throw NumericalFailure(attempt == 0 ? problem : fmt::format("{} (after {} halvings of dt, at dt = {:.3g} s)", problem, attempt, dt));
-        logger()->warn("step {} at t = {:.6g} s with dt = {:.3g} s: {}; taking it again with dt = {:.3g} s",
-                       statistics.steps() + 1, t, dt, problem, dt / 2);
-        sim.return_to_step_start();
-        dt /= 2;
-        ++dt_retries;
-      }
+      dt = take_checked_step(sim, health.get(), scene, t, dt, statistics.steps() + 1, dt_retries, checks_timer);
       if (health) health->accept();
       t = policy.advance(t, dt, next_stop);
       statistics.add(sim.last_step());
