@@ -5,14 +5,16 @@
 //   - Energy: kinetic + gravitational + elastic energy of the particles must not grow.
 //     Slip walls do no work, the projection and implicit Euler only dissipate, so growth
 //     beyond round-off and transfer error is the signature of an unstable step.
-//   - Integrity: a body stays in as many pieces as it was seeded in. MPM's numerical
-//     fracture (particles drifting several spacings apart) is a body that is
-//     under-resolved for how it deforms, never a result.
+//   - Integrity: a body stays in as many pieces as it was seeded in, its particles linked
+//     when closer than three seeding spacings (a stretch of 3 between neighbours). MPM's
+//     numerical fracture (particles drifting apart) is a body that is under-resolved for
+//     how it deforms, never a result.
 #pragma once
 
 #include <fmt/format.h>
 
 #include <limits>
+#include <numeric>
 #include <string>
 #include <vector>
 
@@ -41,46 +43,47 @@ Real mechanical_energy(const Simulation<dim>& sim) {
   return motion(sim.fluid()) + motion(solid) + elastic;
 }
 
-// The number of pieces of each body: its particles binned at their seeding spacing
-// (dx / particles_per_axis) over the solids' bounding box, bins connected across faces,
-// edges and corners. Seeded neighbours are one spacing apart, always in touching bins;
-// two particles more than 2 sqrt(dim) spacings apart never are, so a piece that far from
-// the rest (compare stress's torn body: 3 spacings) is always found.
+// The number of pieces of each body: its particles linked when closer than `link`
+// (union-find over a bin grid of that size, the solids' bounding box only).
 template <int dim>
-std::vector<int> body_pieces(const Simulation<dim>& sim, Real spacing) {
+std::vector<int> body_pieces(const Simulation<dim>& sim, Real link) {
   const Particles<dim>& solid = sim.solid();
   std::vector<int> pieces(sim.materials().size(), 0);
-  if (solid.empty()) return pieces;
+  const int n = int(solid.size());
+  if (n == 0) return pieces;
   IVec<dim> lo = IVec<dim>::Constant(std::numeric_limits<int>::max()), hi = IVec<dim>::Constant(std::numeric_limits<int>::min());
-  std::vector<IVec<dim>> bin(solid.size());
-  for (std::size_t p = 0; p < solid.size(); ++p) {
-    for (int a = 0; a < dim; ++a) bin[p][a] = int(std::floor((solid.position[p][a] - sim.grid().origin[a]) / spacing));
+  std::vector<IVec<dim>> bin(n);
+  for (int p = 0; p < n; ++p) {
+    for (int a = 0; a < dim; ++a) bin[p][a] = int(std::floor((solid.position[p][a] - sim.grid().origin[a]) / link));
     lo = lo.cwiseMin(bin[p]);
     hi = hi.cwiseMax(bin[p]);
   }
   const GridLayout<dim> bins(lo, hi - lo + IVec<dim>::Ones());
-  std::vector<int> body_of_bin(bins.size(), -1);  // -1 empty; a bin shared by two bodies keeps one (rare, harmless)
-  for (std::size_t p = 0; p < solid.size(); ++p) body_of_bin[bins.index(bin[p])] = solid.body[p];
-  std::vector<int> stack;
-  for (int start = 0; start < bins.size(); ++start) {
-    const int body = body_of_bin[start];
-    if (body < 0) continue;
-    ++pieces[body];
-    body_of_bin[start] = -1;
-    stack.assign(1, start);
-    while (!stack.empty()) {
-      const IVec<dim> c = bins.multi_index(stack.back());
-      stack.pop_back();
-      for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
-        const IVec<dim> n = c + offset - IVec<dim>::Ones();
-        if (!bins.contains(n)) return;
-        const int k = bins.index(n);
-        if (body_of_bin[k] != body) return;
-        body_of_bin[k] = -1;
-        stack.push_back(k);
-      });
-    }
-  }
+  std::vector<int> start(bins.size() + 1, 0), order(n);
+  for (int p = 0; p < n; ++p) ++start[bins.index(bin[p]) + 1];
+  std::partial_sum(start.begin(), start.end(), start.begin());
+  std::vector<int> next(start.begin(), start.end() - 1);
+  for (int p = 0; p < n; ++p) order[next[bins.index(bin[p])]++] = p;
+  std::vector<int> parent(n);
+  std::iota(parent.begin(), parent.end(), 0);
+  auto root = [&](int p) {
+    while (parent[p] != p) p = parent[p] = parent[parent[p]];
+    return p;
+  };
+  const Real link2 = link * link;
+  for (int p = 0; p < n; ++p)
+    for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
+      const IVec<dim> b = bin[p] + offset - IVec<dim>::Ones();
+      if (!bins.contains(b)) return;
+      const int k = bins.index(b);
+      for (int i = start[k]; i < start[k + 1]; ++i) {
+        const int q = order[i];
+        if (q > p && solid.body[q] == solid.body[p] && (solid.position[q] - solid.position[p]).squaredNorm() < link2)
+          parent[root(q)] = root(p);
+      }
+    });
+  for (int p = 0; p < n; ++p)
+    if (root(p) == p) ++pieces[solid.body[p]];
   return pieces;
 }
 
@@ -92,8 +95,8 @@ class HealthChecks {
   // kinetic energy at the start).
   HealthChecks(const Simulation<dim>& sim, Real energy_growth)
       : energy_growth_(energy_growth),
-        spacing_(sim.grid().dx / sim.scene().particles_per_axis),
-        seeded_pieces_(body_pieces(sim, spacing_)),
+        link_(3 * sim.grid().dx / sim.scene().particles_per_axis),
+        seeded_pieces_(body_pieces(sim, link_)),
         energy_(mechanical_energy(sim)) {
     const Vec<dim> g = sim.gravity();
     Real floor = 0;  // the lowest potential energy per unit mass the domain allows
@@ -114,10 +117,10 @@ class HealthChecks {
       return fmt::format("the step created mechanical energy: {:.3g} J ({:.3g} of the run's energy scale {:.3g} J; "
                          "accepted: at most health.energy_growth = {:.3g})", candidate_energy_ - energy_, growth,
                          energy_scale_, energy_growth_);
-    const std::vector<int> pieces = body_pieces(sim, spacing_);
+    const std::vector<int> pieces = body_pieces(sim, link_);
     for (std::size_t b = 0; b < pieces.size(); ++b)
       if (pieces[b] > seeded_pieces_[b])
-        return fmt::format("solid {} came apart: {} pieces (seeded as {}), more than two particle spacings apart (numerical fracture: "
+        return fmt::format("solid {} came apart: {} pieces (seeded as {}), more than three particle spacings apart (numerical fracture: "
                            "the body deforms more than its particles resolve; try a smaller dt_max or cfl, a larger "
                            "particles_per_axis or a stiffer material)", sim.scene().solids[b].name.empty() ? std::to_string(b) : "'" + sim.scene().solids[b].name + "'",
                            pieces[b], seeded_pieces_[b]);
@@ -131,7 +134,7 @@ class HealthChecks {
 
  private:
   Real energy_growth_;
-  Real spacing_;  // of the seeded particles
+  Real link_;  // particles closer than this belong to one piece: 3 seeding spacings
   std::vector<int> seeded_pieces_;
   Real energy_ = 0, candidate_energy_ = 0, energy_scale_ = 1;
 };
