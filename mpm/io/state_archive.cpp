@@ -115,18 +115,4 @@ StateArchive StateArchive::read(const std::string& path) {
   return archive;
 }
 
-template <class T>
-const std::vector<T>& StateArchive::find(const std::map<std::string, std::vector<T>>& arrays, const std::string& name) const {
-  const auto it = arrays.find(name);
-  if (it == arrays.end())
-    throw InputError(fmt::format("checkpoint '{}' has no array '{}' (written by another version of iqmpm?)", source_, name));
-  return it->second;
-}
-
-template const std::vector<double>& StateArchive::find(const std::map<std::string, std::vector<double>>&, const std::string&) const;
-template const std::vector<std::int64_t>& StateArchive::find(const std::map<std::string, std::vector<std::int64_t>>&,
-                                                             const std::string&) const;
-template const std::vector<std::uint8_t>& StateArchive::find(const std::map<std::string, std::vector<std::uint8_t>>&,
-                                                             const std::string&) const;
-
 }  // namespace iqmpm

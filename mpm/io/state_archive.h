@@ -6,9 +6,12 @@
 
 #include <cstdint>
 #include <map>
+#include <fmt/format.h>
+
 #include <string>
 #include <vector>
 
+#include "core/errors.h"
 #include "scene/json_reader.h"
 
 namespace iqmpm {
@@ -33,7 +36,12 @@ class StateArchive {
 
  private:
   template <class T>
-  const std::vector<T>& find(const std::map<std::string, std::vector<T>>& arrays, const std::string& name) const;
+  const std::vector<T>& find(const std::map<std::string, std::vector<T>>& arrays, const std::string& name) const {
+    const auto it = arrays.find(name);
+    if (it == arrays.end())
+      throw InputError(fmt::format("checkpoint '{}' has no array '{}' (written by another version of iqmpm?)", source_, name));
+    return it->second;
+  }
 
   std::string source_;  // the file it was read from (for messages)
   std::map<std::string, std::vector<double>> doubles_;
