@@ -9,13 +9,23 @@
 //     when closer than three seeding spacings (a stretch of 3 between neighbours). MPM's
 //     numerical fracture (particles drifting apart) is a body that is under-resolved for
 //     how it deforms, never a result.
+//   - Constraints: the new grid velocities meet the pressure system's rows (divergence,
+//     walls, interface) to the solver's accuracy; a direct solve that needed a shifted
+//     factorisation, or an iterative one that stopped short, shows here.
+//   - Body volume (det F against the load): a body's volume change sum V0 det F / sum V0 - 1
+//     stays within what its bulk modulus allows under the loads it can feel: the mean
+//     stress of a body is its surface tractions' and body forces' virial, bounded by the
+//     largest fluid pressure, its weight over its height and the stress of stopping it
+//     (rho c_p v, an impact; the volumetric strain of an elastic wave is v / c_p).
 #pragma once
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <limits>
 #include <numeric>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "simulation/simulation.h"
@@ -78,13 +88,59 @@ std::vector<int> body_pieces(const Simulation<dim>& sim, Real link) {
       const int k = bins.index(b);
       for (int i = start[k]; i < start[k + 1]; ++i) {
         const int q = order[i];
-        if (q > p && solid.body[q] == solid.body[p] && (solid.position[q] - solid.position[p]).squaredNorm() < link2)
-          parent[root(q)] = root(p);
+        if (q <= p || solid.body[q] != solid.body[p]) continue;
+        const int rp = root(p), rq = root(q);  // most neighbours are joined already
+        if (rp != rq && (solid.position[q] - solid.position[p]).squaredNorm() < link2) parent[rq] = rp;
       }
     });
   for (int p = 0; p < n; ++p)
     if (root(p) == p) ++pieces[solid.body[p]];
   return pieces;
+}
+
+// Safety factor and floor of the body-volume check (docs/method.md#health-checks): the
+// virial bound is an order of magnitude, and a stiff body's volume drifts with the F
+// update's error (up to 2.6e-4 over the floating block's 5 s); 1e-3 leaves a margin of 4.
+constexpr Real kVolumeLoadFactor = 10;
+constexpr Real kVolumeFloor = 1e-3;
+
+// Per body: (volume change |sum V0 det F / sum V0 - 1|, the change its stiffness allows).
+// speed_limit caps the bodies' speeds in the impact term: the fastest a load can make a
+// body (a fall through the domain's height, or the fastest initial speed), so that a body
+// that an unstable step sets in motion does not loosen its own bound.
+template <int dim>
+std::vector<std::pair<Real, Real>> body_volume_changes(const Simulation<dim>& sim, Real speed_limit) {
+  const Particles<dim>& solid = sim.solid();
+  const std::size_t bodies = sim.materials().size();
+  if (solid.empty()) return std::vector<std::pair<Real, Real>>(bodies, {0, 0});
+  std::vector<Real> volume0(bodies, 0), volume(bodies, 0), speed(bodies, 0);
+  const Real inf = std::numeric_limits<Real>::infinity();
+  std::vector<Vec<dim>> lo(bodies, Vec<dim>::Constant(inf)), hi(bodies, Vec<dim>::Constant(-inf));
+  for (std::size_t p = 0; p < solid.size(); ++p) {
+    const int b = solid.body[p];
+    volume0[b] += solid.initial_volume[p];
+    volume[b] += solid.initial_volume[p] * solid.deformation_gradient[p].determinant();
+    speed[b] = std::max(speed[b], solid.velocity[p].norm());
+    lo[b] = lo[b].cwiseMin(solid.position[p]);
+    hi[b] = hi[b].cwiseMax(solid.position[p]);
+  }
+  Real pressure = 0;  // the largest fluid pressure anywhere bounds the load on any surface
+  for (int k : sim.fluid_cells()) pressure = std::max(pressure, std::abs(sim.fluid_pressure(k)));
+  const Real g = sim.gravity().norm();
+  const Vec<dim> down = g > 0 ? Vec<dim>(sim.gravity() / g) : Vec<dim>::Zero();
+  std::vector<std::pair<Real, Real>> changes(bodies, {0, 0});
+  for (std::size_t b = 0; b < bodies; ++b) {
+    if (volume0[b] == 0) continue;
+    const SolidMaterial<dim>& material = sim.materials()[b];
+    const Real density = sim.scene().solids[b].density;
+    const Real bulk = material.lambda + 2 * material.mu / dim;
+    const Real wave_speed = std::sqrt((material.lambda + 2 * material.mu) / density);
+    const Real height = std::abs((hi[b] - lo[b]).dot(down));
+    const Real impact = std::min(speed[b], speed_limit) / wave_speed;
+    const Real allowed = kVolumeLoadFactor * ((pressure + density * g * height) / bulk + impact) + kVolumeFloor;
+    changes[b] = {std::abs(volume[b] / volume0[b] - 1), allowed};
+  }
+  return changes;
 }
 
 template <int dim>
@@ -106,11 +162,26 @@ class HealthChecks {
       for (std::size_t i = 0; i < p->size(); ++i)
         scale += p->mass[i] * (Real(0.5) * p->velocity[i].squaredNorm() - g.dot(p->position[i]) - floor);
     energy_scale_ = std::max(scale, std::numeric_limits<Real>::min());
+    residual_tolerance_ = std::max(Real(1e-6), 100 * sim.options().pressure_solver.tolerance);
+    Real height = 0, fastest = 0;  // the domain's extent along g; the fastest initial particle
+    for (int a = 0; a < dim; ++a) height += std::abs(g[a]) * sim.grid().dx * sim.grid().cells[a];
+    height /= std::max(g.norm(), std::numeric_limits<Real>::min());
+    for (const Particles<dim>* p : {&sim.fluid(), &sim.solid()})
+      for (const auto& v : p->velocity) fastest = std::max(fastest, v.norm());
+    speed_limit_ = std::max(fastest, std::sqrt(2 * g.norm() * height));
   }
 
   // The diagnosis of the step just taken; empty when it passes. `accept` then makes its
   // state the next step's reference.
   std::string violation(const Simulation<dim>& sim) {
+    constraint_residual_ = sim.pressure_system().unknowns() == 0 ? 0 :
+        sim.pressure_system().relative_constraint_residual(sim.grid_velocity_before_projection(),
+                                                           sim.grid_velocity_after_projection(), sim.pressure_solution());
+    if (!(constraint_residual_ <= residual_tolerance_))
+      return fmt::format("the new velocities miss the pressure system's constraints by {:.3g} of its right-hand side "
+                         "(accepted: {:.1g}; the {} solve's own relative residual {:.3g}{})", constraint_residual_,
+                         residual_tolerance_, sim.last_step().linear.method, sim.last_step().linear.relative_residual,
+                         sim.last_step().linear.shifted ? ", after a zero pivot shifted its factorisation" : "");
     candidate_energy_ = mechanical_energy(sim);
     const Real growth = (candidate_energy_ - energy_) / energy_scale_;
     if (growth > energy_growth_)
@@ -124,12 +195,20 @@ class HealthChecks {
                            "the body deforms more than its particles resolve; try a smaller dt_max or cfl, a larger "
                            "particles_per_axis or a stiffer material)", sim.scene().solids[b].name.empty() ? std::to_string(b) : "'" + sim.scene().solids[b].name + "'",
                            pieces[b], seeded_pieces_[b]);
+    const auto volumes = body_volume_changes(sim, speed_limit_);
+    for (std::size_t b = 0; b < volumes.size(); ++b)
+      if (!(volumes[b].first <= volumes[b].second))
+        return fmt::format("solid {} changed its volume by {:.3g} %, more than its stiffness allows under the loads it feels "
+                           "({:.3g} %: docs/method.md#health-checks); the solid's step is not in balance with its loads",
+                           sim.scene().solids[b].name.empty() ? std::to_string(b) : "'" + sim.scene().solids[b].name + "'",
+                           100 * volumes[b].first, 100 * volumes[b].second);
     return {};
   }
   void accept() { energy_ = candidate_energy_; }
   // The next step's reference from the state as it is (a run resumed from a checkpoint).
   void measure_reference(const Simulation<dim>& sim) { energy_ = mechanical_energy(sim); }
   Real energy() const { return energy_; }
+  Real constraint_residual() const { return constraint_residual_; }  // of the last step checked
   Real energy_scale() const { return energy_scale_; }
 
  private:
@@ -137,6 +216,11 @@ class HealthChecks {
   Real link_;  // particles closer than this belong to one piece: 3 seeding spacings
   std::vector<int> seeded_pieces_;
   Real energy_ = 0, candidate_energy_ = 0, energy_scale_ = 1;
+  Real constraint_residual_ = 0;
+  // A solve to solver.tolerance (PCG) leaves a residual of that order; direct solves leave
+  // round-off (1e-12 .. 1e-9 on the benchmarks).
+  Real residual_tolerance_ = 1e-6;
+  Real speed_limit_ = 0;  // of the body-volume check's impact term (body_volume_changes)
 };
 
 }  // namespace iqmpm

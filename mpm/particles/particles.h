@@ -34,26 +34,30 @@ struct Particles {
     initial_volume.push_back(volume);
   }
 
-  // Reorders every attribute by `order` (new[i] = old[order[i]]).
-  void permute(const std::vector<int>& order) {
-    apply(position, order);
-    apply(velocity, order);
-    apply(affine, order);
-    apply(mass, order);
-    apply(initial_volume, order);
-    apply(deformation_gradient, order);
-    apply(ghost_J, order);
-    apply(body, order);
-    apply(initial_position, order);
+  // Reorders every attribute by `order` (new[i] = old[order[i]]). With `previous`, the
+  // attributes as they were end up there (their old buffers are reused for the new
+  // order), so a caller keeps the unsorted state without copying it.
+  void permute(const std::vector<int>& order, Particles* previous = nullptr) {
+    apply(position, order, previous ? &previous->position : nullptr);
+    apply(velocity, order, previous ? &previous->velocity : nullptr);
+    apply(affine, order, previous ? &previous->affine : nullptr);
+    apply(mass, order, previous ? &previous->mass : nullptr);
+    apply(initial_volume, order, previous ? &previous->initial_volume : nullptr);
+    apply(deformation_gradient, order, previous ? &previous->deformation_gradient : nullptr);
+    apply(ghost_J, order, previous ? &previous->ghost_J : nullptr);
+    apply(body, order, previous ? &previous->body : nullptr);
+    apply(initial_position, order, previous ? &previous->initial_position : nullptr);
   }
 
  private:
   template <class T>
-  static void apply(std::vector<T>& values, const std::vector<int>& order) {
-    if (values.empty()) return;
-    std::vector<T> sorted(values.size());
-    for (std::size_t i = 0; i < order.size(); ++i) sorted[i] = values[order[i]];
+  static void apply(std::vector<T>& values, const std::vector<int>& order, std::vector<T>* previous) {
+    std::vector<T> sorted;
+    if (previous) sorted.swap(*previous);
+    sorted.resize(values.size());
+    for (std::size_t i = 0; i < values.size(); ++i) sorted[i] = values[order[i]];
     values.swap(sorted);
+    if (previous) previous->swap(sorted);
   }
 };
 
@@ -92,8 +96,9 @@ void number_occupied_cells(const ParticleBins<dim>& bins, std::vector<int>& of_c
 }
 
 // Counting sort of the particles by dual cell; particles must lie inside the domain.
+// `unsorted`, if given, receives the particles as they were.
 template <int dim>
-ParticleBins<dim> sort_particles_by_cell(const Grid<dim>& grid, Particles<dim>& particles) {
+ParticleBins<dim> sort_particles_by_cell(const Grid<dim>& grid, Particles<dim>& particles, Particles<dim>* unsorted = nullptr) {
   ParticleBins<dim> bins;
   bins.layout = grid.dual_cells();
   const int cells = bins.layout.size();
@@ -108,7 +113,7 @@ ParticleBins<dim> sort_particles_by_cell(const Grid<dim>& grid, Particles<dim>& 
   std::vector<int> next(bins.cell_start.begin(), bins.cell_start.end() - 1);
   std::vector<int> order(n);
   for (int p = 0; p < n; ++p) order[next[cell_of[p]]++] = p;
-  particles.permute(order);
+  particles.permute(order, unsorted);
   return bins;
 }
 

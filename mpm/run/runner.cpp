@@ -127,7 +127,7 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
   const double initial_particle_volume = fluid_particle_volume(sim);
 
   // steps.csv: the pressure solve of every step (benchmarks.md, "Output contract").
-  const std::vector<std::string> step_columns{"step", "t", "dt", "unknowns", "iterations", "initial_residual", "solve_s", "warm_start_s", "contact_rounds", "energy"};
+  const std::vector<std::string> step_columns{"step", "t", "dt", "unknowns", "iterations", "initial_residual", "solve_s", "warm_start_s", "contact_rounds", "energy", "constraint_residual"};
   std::vector<std::vector<double>> step_rows;
   result.columns.push_back("t");
   for (std::size_t i = 0; i < probes.size(); ++i) result.columns.push_back(probes.name(i));
@@ -236,7 +236,8 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
       const StepStats& last = sim.last_step();
       step_rows.push_back({double(statistics.steps()), t, dt, double(last.pressure_unknowns), double(last.linear.iterations),
                            last.linear.initial_relative_residual, sim.timer().seconds("solve") - solve_before, sim.timer().seconds("warm start") - guess_before,
-                           double(last.contact_rounds), health ? health->energy() : NAN});
+                           double(last.contact_rounds), health ? health->energy() : NAN,
+                           health ? health->constraint_residual() : NAN});
       if (pressure_fields) pressure_fields->append(sim.pressure_fields(), dt, statistics.steps(), last.linear.iterations);
       if (writer && std::find(options.dump_steps.begin(), options.dump_steps.end(), statistics.steps()) != options.dump_steps.end())
         dump_pressure_system(sim, options.out_dir, statistics.steps());
@@ -319,7 +320,7 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
   // The unit of every column of metrics.csv and steps.csv.
   Json metric_units = {{"t", "s"}}, step_units = Json::object();
   for (std::size_t i = 0; i < probes.size(); ++i) metric_units[probes.name(i)] = probes.unit(i);
-  const std::vector<const char*> step_column_units{"1", "s", "s", "1", "1", "1", "s", "s", "1", dim == 2 ? "J/m" : "J"};
+  const std::vector<const char*> step_column_units{"1", "s", "s", "1", "1", "1", "s", "s", "1", dim == 2 ? "J/m" : "J", "1"};
   for (std::size_t c = 0; c < step_columns.size(); ++c) step_units[step_columns[c]] = step_column_units[c];
   summary["units"] = {{"metrics.csv", metric_units}, {"steps.csv", step_units}};
   result.ok = status == "ok";

@@ -79,6 +79,8 @@ class Simulation {
   // The same state kept in memory before a step, and brought back when the step failed
   // or failed a health check, so that the runner can take it again with a smaller dt. The
   // warm start keeps the failed attempt's solution (only the first guess of the retry).
+  // keep_step_start() before step(): the step's particle sort hands over the arrays it
+  // replaces, so keeping the start costs no copy.
   void keep_step_start();
   void return_to_step_start();
 
@@ -218,7 +220,9 @@ class Simulation {
   StageTimer timer_;
   StepStats last_;
   struct StepStart {
-    Particles<dim> fluid, solid;
+    Particles<dim> fluid, solid;  // as before the step's sort (transfer_stages.h)
+    bool requested = false;       // by keep_step_start(), for the next sort
+    bool kept = false;            // fluid and solid hold the start of the last step
     Real time = 0;
     std::vector<std::uint8_t> released_h_cells, released_p_cells;
   } step_start_;

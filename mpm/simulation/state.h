@@ -8,6 +8,9 @@
 
 #include <fmt/format.h>
 
+#include <stdexcept>
+#include <utility>
+
 #include "core/errors.h"
 #include "io/state_archive.h"
 #include "simulation/simulation.h"
@@ -111,8 +114,8 @@ void Simulation<dim>::restore_state(const StateArchive& archive) {
 
 template <int dim>
 void Simulation<dim>::keep_step_start() {
-  step_start_.fluid = fluid_;
-  step_start_.solid = solid_;
+  step_start_.requested = true;
+  step_start_.kept = false;
   step_start_.time = time_;
   step_start_.released_h_cells = contact_.released_h_cells();
   step_start_.released_p_cells = contact_.released_p_cells();
@@ -120,8 +123,10 @@ void Simulation<dim>::keep_step_start() {
 
 template <int dim>
 void Simulation<dim>::return_to_step_start() {
-  fluid_ = step_start_.fluid;
-  solid_ = step_start_.solid;
+  if (!step_start_.kept) throw std::logic_error("return_to_step_start: no step was taken after keep_step_start");
+  std::swap(fluid_, step_start_.fluid);
+  std::swap(solid_, step_start_.solid);
+  step_start_.kept = false;
   time_ = step_start_.time;
   contact_.restore_released_cells(step_start_.released_h_cells, step_start_.released_p_cells);
 }

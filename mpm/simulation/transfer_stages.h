@@ -15,8 +15,12 @@ namespace iqmpm {
 template <int dim>
 void Simulation<dim>::sort_particles() {
   auto scope = timer_.scope("sort");
-  if (has_fluid()) fluid_bins_ = sort_particles_by_cell(grid_, fluid_);
-  if (has_solids()) solid_bins_ = sort_particles_by_cell(grid_, solid_);
+  // A step that may be taken again keeps its start state: the arrays the sort replaces.
+  const bool keep = step_start_.requested;
+  if (has_fluid()) fluid_bins_ = sort_particles_by_cell(grid_, fluid_, keep ? &step_start_.fluid : nullptr);
+  if (has_solids()) solid_bins_ = sort_particles_by_cell(grid_, solid_, keep ? &step_start_.solid : nullptr);
+  step_start_.kept = keep;
+  step_start_.requested = false;
 }
 
 // §3 step 3: IQ points, and the massless points that carry their borrowed fluid volume

@@ -7,6 +7,8 @@
 // solid's stiffness) satisfies its constraints after the solve.
 #include <Eigen/Dense>
 
+#include <random>
+
 #include "diagnostics/measurements.h"
 #include "linear_solver/linear_solver.h"
 #include "pressure/pressure_system.h"
@@ -159,6 +161,20 @@ TYPED_TEST(CoupledSystemTest, ConstraintsHoldAfterTheSolve) {
   const Eigen::VectorXd d_star = system.constraint() * sim.grid_velocity_before_projection();
   EXPECT_LT(dv.segment(h->offset, h->size).norm(), 1e-8 * d_star.norm());
   EXPECT_LT(dv.segment(pf->offset, pf->size).norm(), 1e-8 * d_star.norm());
+  // The health check's residual (diagnostics/health.h) is round-off after the direct solve,
+  // and for a solution off by delta it is ||(A delta) over the multiplier rows|| / ||r||
+  // (D v^{n+1} + offset - C lambda = r - A lambda with v^{n+1} recovered from lambda).
+  const Eigen::VectorXd& x = sim.pressure_solution();
+  const Eigen::VectorXd v_star = sim.grid_velocity_before_projection();
+  EXPECT_LT(system.relative_constraint_residual(v_star, v, x), 1e-9);
+  std::mt19937 rng(3);
+  Eigen::VectorXd delta(x.size());
+  for (int i = 0; i < delta.size(); ++i) delta[i] = 1e-3 * (x.cwiseAbs().maxCoeff() + 1) * std::uniform_real_distribution<Real>(-1, 1)(rng);
+  const Eigen::VectorXd off = x + delta;
+  const Eigen::VectorXd r = system.rhs(v_star);
+  const int m = system.unknowns();
+  const Real expected = (A * delta).head(m).norm() / r.head(m).norm();
+  EXPECT_NEAR(system.relative_constraint_residual(v_star, system.corrected_velocity(v_star, off), off), expected, 1e-9 * expected);
   // The fluid pushes the block up (buoyancy, 196.2 N/m in 2-D): the sign and rough size of
   // the force, and nothing sideways (a symmetric set-up).
   const Vec<dim> force = body_interface_force(sim, 0);
@@ -246,6 +262,62 @@ TEST(BorderedPressureSystemTest, EqualsThePressureOnlySystemWithTheInverseOfH) {
   EXPECT_LT((v_b - lumped.corrected_velocity(v_star, lambda_m)).norm(), 1e-10 * v_b.norm());
   // The stiffer solid moves less under the same constraints: a different solution.
   EXPECT_GT((lambda_h - lambda_m).norm(), 1e-3 * lambda_m.norm());
+}
+
+}  // namespace
+}  // namespace iqmpm
+
+namespace iqmpm {
+namespace {
+
+// A row of D that touches only held velocities (zero inverse mass: a fluid cell inside a
+// clamped body) is an empty row of A (pressure_system.h): it becomes a unit row with zero
+// right-hand side, so a direct solver factorises without the diagonal shift it needed
+// before (1091 shifted solves in a dam_break_obstacle run), its multiplier and force are
+// zero, and the other rows' solution is the one of the system without it.
+TEST(PressureSystemVacantRowTest, RowOnHeldVelocitiesIsAUnitRowWithZeroMultiplier) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<Real> uniform(-1, 1);
+  const int velocities = 12, rows = 5;
+  const Real dt = 0.01;
+  Eigen::VectorXd inverse_mass(velocities), v_star(velocities);
+  for (int k = 0; k < velocities; ++k) inverse_mass[k] = 1 + 0.5 * uniform(rng), v_star[k] = uniform(rng);
+  inverse_mass[10] = inverse_mass[11] = 0;  // held
+  std::vector<Eigen::Triplet<Real>> entries;
+  for (int r = 0; r < rows - 1; ++r)
+    for (int k = 0; k < 10; ++k)
+      if (uniform(rng) > 0.1) entries.emplace_back(r, k, uniform(rng));
+  entries.emplace_back(2, 10, 0.7);                                        // a live row may touch a held velocity
+  entries.emplace_back(rows - 1, 10, 1.0), entries.emplace_back(rows - 1, 11, -0.5);  // the vacant row
+  PressureSystem system;
+  system.reset(inverse_mass);
+  system.add_block("rows", rows, entries);
+  system.assemble(dt);
+  ASSERT_EQ(system.vacant_rows(), 1);
+  EXPECT_TRUE(system.vacant(rows - 1));
+  EXPECT_EQ(system.matrix().coeff(rows - 1, rows - 1), 1);
+  const Eigen::VectorXd r = system.rhs(v_star);
+  EXPECT_EQ(r[rows - 1], 0);
+  EXPECT_NE(Eigen::VectorXd(system.constraint() * v_star)[rows - 1], 0);  // D v* there is not zero: the row is unenforceable
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(system.size());
+  const auto stats = make_linear_solver(LinearSolverOptions{LinearSolverMethod::ldlt}, system.size(), 2)->solve(system.matrix(), r, x);
+  EXPECT_FALSE(stats.shifted);
+  EXPECT_LT(stats.relative_residual, 1e-12);
+  EXPECT_EQ(x[rows - 1], 0);
+  // The live rows: the same solution as the system assembled without the vacant row.
+  PressureSystem live;
+  live.reset(inverse_mass);
+  std::vector<Eigen::Triplet<Real>> live_entries;
+  for (const auto& t : entries)
+    if (t.row() < rows - 1) live_entries.push_back(t);
+  live.add_block("rows", rows - 1, live_entries);
+  live.assemble(dt);
+  EXPECT_EQ(live.vacant_rows(), 0);
+  const Eigen::VectorXd y = Eigen::MatrixXd(live.matrix()).ldlt().solve(live.rhs(v_star));
+  EXPECT_LT((x.head(rows - 1) - y).norm(), 1e-12 * y.norm());
+  const Eigen::VectorXd v_next = system.corrected_velocity(v_star, x);
+  EXPECT_LT((v_next - live.corrected_velocity(v_star, y)).norm(), 1e-12 * v_next.norm());
+  EXPECT_LT(system.relative_constraint_residual(v_star, v_next, x), 1e-12);  // the vacant row is not counted
 }
 
 }  // namespace
