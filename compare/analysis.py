@@ -34,6 +34,7 @@ class SeriesRow:
     unit: str  # unit of the compared values
     t_unit: str
     error: SeriesError
+    absolute: bool = False  # a zero quantity (MetricSpec.absolute): no relative errors shown
 
 
 @dataclass
@@ -45,14 +46,41 @@ class ScalarRow:
     reference: float
     against: str
     unit: str
+    # expanded uncertainties (k = 2) of value and reference, NaN when the reducer has none
+    uncertainty: float = math.nan
+    reference_uncertainty: float = math.nan
+    # |reference| at or below this counts as zero (ScalarSpec.zero_floor); `absolute`: always
+    zero_floor: float = 0.0
+    absolute: bool = False
+
+    @property
+    def is_absolute(self) -> bool:
+        """The error is reported as an absolute one (the reference is zero or noise)."""
+        return self.absolute or abs(self.reference) <= self.zero_floor
 
     @property
     def rel_error(self) -> float:
+        if self.is_absolute:
+            return math.nan
         return relative_error(self.value, self.reference)
 
     @property
     def abs_error(self) -> float:
         return self.value - self.reference
+
+    @property
+    def combined_uncertainty(self) -> float:
+        """sqrt(U_value^2 + U_reference^2), a missing one counted as 0; NaN when both miss."""
+        parts = [u for u in (self.uncertainty, self.reference_uncertainty) if math.isfinite(u)]
+        return math.sqrt(sum(u * u for u in parts)) if parts else math.nan
+
+    @property
+    def beyond_uncertainty(self) -> bool | None:
+        """|value - reference| > the combined uncertainty; None when there is none."""
+        u = self.combined_uncertainty
+        if not math.isfinite(u) or not math.isfinite(self.abs_error):
+            return None
+        return abs(self.abs_error) > u
 
 
 @dataclass
@@ -157,8 +185,24 @@ def _ours_series(run: Run, spec: MetricSpec) -> Series:
 # --------------------------------------------------------------------------- scalars
 
 
+def reduce_series_u(t: np.ndarray, y: np.ndarray, reducer: str, tail: float = 0.5,
+                    window: float = 0.0, until: float | None = None) -> tuple[float, float]:
+    """``reduce_series`` and the value's expanded uncertainty (k = 2; NaN for reducers
+    without one: only the fitted periods and frequencies have one)."""
+    if reducer in ("early_period", "period", "frequency"):
+        fit = fitted_period(t, y, periods=2.0 if reducer == "early_period" else None)
+        if reducer == "frequency":
+            if not fit.value > 0:
+                return math.nan, math.nan
+            return 1.0 / fit.value, fit.uncertainty / fit.value**2
+        return fit.value, fit.uncertainty
+    return reduce_series(t, y, reducer, tail, window, until), math.nan
+
+
 def reduce_series(t: np.ndarray, y: np.ndarray, reducer: str, tail: float = 0.5,
                   window: float = 0.0, until: float | None = None) -> float:
+    if reducer in ("early_period", "period", "frequency"):
+        return reduce_series_u(t, y, reducer, tail, window, until)[0]
     s = Series.of(t, y)
     if len(s.t) == 0:
         return math.nan
@@ -192,13 +236,6 @@ def reduce_series(t: np.ndarray, y: np.ndarray, reducer: str, tail: float = 0.5,
         return float(np.trapz(y_tail[window], t_tail[window]) / (t_tail[up[-1]] - t_tail[up[0] + 1]))
     if reducer == "decay":
         return decay_ratio(s.t, s.y, tail)
-    if reducer == "early_period":
-        return early_period(s.t, s.y, tail)
-    if reducer in ("period", "frequency"):
-        period = mean_period(s.t, s.y)
-        if reducer == "period":
-            return period
-        return 1.0 / period if period > 0 else math.nan
     raise CompareError(f"unknown scalar reducer '{reducer}'")
 
 
@@ -272,6 +309,155 @@ def decay_ratio(t: np.ndarray, y: np.ndarray, tail: float = 0.4, periods: int = 
     return float((amplitudes[2 * periods] / amplitudes[0]) ** (1.0 / periods))
 
 
+@dataclass(frozen=True)
+class PeriodFit:
+    """A period fitted to a (damped) oscillation: ``value`` ± ``uncertainty`` (expanded, k = 2:
+    twice the standard error), over ``window`` (s); ``periods`` whole periods it spans."""
+
+    value: float
+    uncertainty: float
+    window: tuple[float, float]
+    periods: float
+    decay_rate: float  # 1/s of the fitted envelope exp(-rate (t - t0))
+
+
+NO_PERIOD = PeriodFit(math.nan, math.nan, (math.nan, math.nan), 0.0, math.nan)
+
+
+def _uniform(t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    step = float(np.median(np.diff(t)))
+    tu = np.arange(t[0], t[-1] + 0.5 * step, step)
+    return tu, np.interp(tu, t, y)
+
+
+def spectral_period(t: np.ndarray, y: np.ndarray) -> float:
+    """Period of the largest peak of the amplitude spectrum (series resampled uniformly,
+    mean removed, Hann window, zero-padded 16x, the peak refined by a parabola through the
+    log magnitudes of its three bins); NaN without a peak above the lowest bin."""
+    if len(t) < 8 or not t[-1] > t[0]:
+        return math.nan
+    tu, yu = _uniform(t, y)
+    z = (yu - np.mean(yu)) * np.hanning(len(yu))
+    n = 16 * len(z)
+    mag = np.abs(np.fft.rfft(z, n))
+    step = tu[1] - tu[0]
+    freq = np.fft.rfftfreq(n, step)
+    lowest = 1.5 / (tu[-1] - tu[0])  # at least 1.5 cycles in the record
+    ok = np.nonzero(freq >= lowest)[0]
+    if len(ok) < 3:
+        return math.nan
+    k = int(ok[np.argmax(mag[ok])])
+    if k <= ok[0] or k >= len(mag) - 1:
+        return math.nan
+    la, lb, lc = np.log(mag[k - 1:k + 2] + 1e-300)
+    shift = 0.5 * (la - lc) / (la - 2 * lb + lc) if (la - 2 * lb + lc) != 0 else 0.0
+    f = freq[k] + shift * (freq[1] - freq[0])
+    return float(1.0 / f) if f > 0 else math.nan
+
+
+def _damped(tau: np.ndarray, c: float, a: float, b: float, rate: float,
+            omega: float) -> np.ndarray:
+    return c + np.exp(-rate * tau) * (a * np.cos(omega * tau) + b * np.sin(omega * tau))
+
+
+def _fit_window(t: np.ndarray, y: np.ndarray, t0: float, period: float,
+                periods: float | None
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    from scipy.optimize import curve_fit
+
+    end = t[-1] if periods is None else min(t[-1], t0 + periods * period)
+    sel = (t >= t0) & (t <= end + 1e-12)
+    tau, ys = t[sel] - t0, y[sel]
+    if len(tau) < 8 or tau[-1] < 0.75 * period:
+        return None
+    omega = 2 * math.pi / period
+    # c, a, b by linear least squares at the guessed frequency, no decay
+    basis = np.column_stack([np.ones_like(tau), np.cos(omega * tau), np.sin(omega * tau)])
+    (c, a, b), *_ = np.linalg.lstsq(basis, ys, rcond=None)
+    try:
+        p, cov = curve_fit(_damped, tau, ys, p0=[c, a, b, 0.1 / period, omega], maxfev=20000)
+    except (RuntimeError, ValueError):
+        return None
+    if not np.all(np.isfinite(cov)) or p[4] <= 0:
+        return None
+    return p, cov, tau, ys
+
+
+def correlation_time(r: np.ndarray) -> float:
+    """Integrated autocorrelation time of ``r`` in samples: 1 + 2 sum_k rho_k over the lags
+    k >= 1 up to the first non-positive autocorrelation rho_k (1 for white noise; at most
+    len(r) / 2, so that at least two independent samples remain)."""
+    r = np.asarray(r, dtype=float) - np.mean(r)
+    n = len(r)
+    if n < 3 or not np.any(r):
+        return 1.0
+    spec = np.fft.rfft(r, 2 * n)
+    acf = np.fft.irfft(spec * np.conj(spec))[:n]
+    rho = acf / acf[0]
+    stop = np.nonzero(rho[1:] <= 0)[0]
+    k = int(stop[0]) + 1 if len(stop) else n
+    tau = 1.0 + 2.0 * float(np.sum(rho[1:k]))
+    return float(min(max(tau, 1.0), n / 2.0))
+
+
+def fitted_period(t: np.ndarray, y: np.ndarray, periods: float | None = 2.0,
+                  t_start: float | None = None) -> PeriodFit:
+    """Period of a (damped) oscillation by a least-squares fit of
+    ``c + exp(-rate tau) (a cos(omega tau) + b sin(omega tau))``, tau = t - t0, over the window
+    from t0 (``t_start``, else the first sample: the release) to t0 + ``periods`` fitted
+    periods (None: to the end of the run). The fit is repeated with the window set by its own
+    period until the period changes by less than 1e-6 (at most 8 times); first guesses: the
+    spectral peak of the whole run and of its first half, and the half-cycles' zero crossings
+    (``early_period``); the fit with the smallest RMS residual relative to the signal's RMS in
+    its window wins.
+
+    Uncertainty: twice the standard error of omega from the fit's covariance (scaled by the
+    residual variance), times sqrt(tau), tau the residuals' integrated autocorrelation time in
+    samples (``correlation_time``): residuals that are not white (waves returning from the
+    walls, a second mode, output smoothing) carry fewer independent samples, and the standard
+    error grows accordingly, the same whatever the output interval. NaN when the window holds
+    less than 3/4 of a period or no fit converges.
+    """
+    s = Series.of(t, y)
+    t, y = s.t, s.y
+    if len(t) < 8 or not t[-1] > t[0]:
+        return NO_PERIOD
+    t0 = float(t[0] if t_start is None else t_start)
+    half = t <= t[0] + 0.5 * (t[-1] - t[0])
+    guesses = [spectral_period(t, y), spectral_period(t[half], y[half])]
+    early = early_period(t, y)
+    guesses.append(early)
+    best: tuple[float, PeriodFit] | None = None
+    for guess in guesses:
+        if not (math.isfinite(guess) and guess > 0):
+            continue
+        period, fit = guess, None
+        for _ in range(8):
+            fit = _fit_window(t, y, t0, period, periods)
+            if fit is None:
+                break
+            new = 2 * math.pi / fit[0][4]
+            converged = periods is None or abs(new - period) <= 1e-6 * period
+            period = new
+            if converged:  # the whole run: the window does not depend on the period
+                break
+        if fit is None or not (math.isfinite(period) and period > 0):
+            continue
+        p, cov, tau, ys = fit
+        resid = ys - _damped(tau, *p)
+        signal = float(np.sqrt(np.mean((ys - p[0]) ** 2)))
+        if signal <= 0:
+            continue
+        rel = float(np.sqrt(np.mean(resid**2))) / signal
+        sigma_omega = math.sqrt(max(cov[4, 4], 0.0) * correlation_time(resid))
+        u = 2.0 * period * period / (2 * math.pi) * sigma_omega
+        est = PeriodFit(float(period), float(u), (t0, float(t0 + tau[-1])),
+                        float(tau[-1] / period), float(p[3]))
+        if best is None or rel < best[0]:
+            best = (rel, est)
+    return best[1] if best is not None else NO_PERIOD
+
+
 def mean_period(t: np.ndarray, y: np.ndarray) -> float:
     """Mean time between upward crossings of the series' mean (NaN with < 2 crossings)."""
     z = y - np.mean(y)
@@ -284,12 +470,20 @@ def mean_period(t: np.ndarray, y: np.ndarray) -> float:
 
 def scalar_value(run: Run, spec: ScalarSpec) -> float | None:
     """The scalar of a run, or None when the run does not provide it."""
+    found = scalar_value_u(run, spec)
+    return None if found is None else found[0]
+
+
+def scalar_value_u(run: Run, spec: ScalarSpec) -> tuple[float, float] | None:
+    """The scalar of a run and its expanded uncertainty (NaN when the reducer gives none),
+    or None when the run does not provide it."""
     if spec.summary_key:
         value = run.summary.get(spec.summary_key)
         if isinstance(value, (int, float)):
-            return float(value)
+            return float(value), math.nan
         if run.metrics is not None and spec.summary_key in run.metrics.columns:
-            return reduce_series(run.metrics.t, run.metrics.columns[spec.summary_key], "last")
+            return reduce_series(run.metrics.t, run.metrics.columns[spec.summary_key],
+                                 "last"), math.nan
         return None
     if run.metrics is None or spec.column not in run.metrics.columns:
         return None
@@ -300,7 +494,7 @@ def scalar_value(run: Run, spec: ScalarSpec) -> float | None:
         y = y - run.metrics.columns[spec.subtract_column] + spec.offset
     if spec.use_abs:
         y = np.abs(y)
-    return reduce_series(run.metrics.t, y, spec.reducer, spec.tail, spec.window, spec.until)
+    return reduce_series_u(run.metrics.t, y, spec.reducer, spec.tail, spec.window, spec.until)
 
 
 # --------------------------------------------------------------------------- helpers
@@ -398,7 +592,7 @@ def _series_section(result: BenchmarkResult, spec: MetricSpec, base: Run, foam: 
                 r = load_reference(ref, options.data_dir, mine.t)
                 err = series_error(mine, r)
                 result.series_rows.append(SeriesRow(spec.column, base.label, ref.label,
-                                                    spec.unit, "s", err))
+                                                    spec.unit, "s", err, spec.absolute))
                 if norm is not None:
                     curves.append(plots.Curve(r.t * norm.t_scale, r.y * norm.y_scale, ref.label, "o"))
                 else:
@@ -412,7 +606,7 @@ def _series_section(result: BenchmarkResult, spec: MetricSpec, base: Run, foam: 
             try:
                 err = series_error(mine, _ours_series(foam, spec))
                 result.series_rows.append(SeriesRow(spec.column, base.label, foam.label,
-                                                    spec.unit, "s", err))
+                                                    spec.unit, "s", err, spec.absolute))
             except CompareError as exc:
                 result.notes.append(f"{spec.column} vs {foam.label}: {exc}")
         else:
@@ -425,23 +619,27 @@ def _series_section(result: BenchmarkResult, spec: MetricSpec, base: Run, foam: 
 
 def _scalar_section(result: BenchmarkResult, spec: ScalarSpec, base: Run,
                     foam: Run | None) -> None:
-    value = scalar_value(base, spec)
-    if value is None:
+    found = scalar_value_u(base, spec)
+    if found is None:
         result.notes.append(f"scalar {spec.name}: not provided by {base.path}")
         return
+    value, u = found
+    rule = dict(zero_floor=spec.zero_floor, absolute=spec.absolute)
     if spec.reference is not None:
         result.scalar_rows.append(ScalarRow(spec.name, spec.description, base.label, value,
-                                            spec.reference, spec.reference_label, spec.unit))
+                                            spec.reference, spec.reference_label, spec.unit,
+                                            u, **rule))
     elif foam is not None:
-        ref = scalar_value(foam, spec)
-        if ref is None or not math.isfinite(ref):
+        theirs = scalar_value_u(foam, spec)
+        if theirs is None or not math.isfinite(theirs[0]):
             result.notes.append(f"scalar {spec.name}: not available from {foam.label}")
         else:
             result.scalar_rows.append(ScalarRow(spec.name, spec.description, base.label, value,
-                                                ref, foam.label, spec.unit))
+                                                theirs[0], foam.label, spec.unit, u, theirs[1],
+                                                **rule))
     else:
         result.scalar_rows.append(ScalarRow(spec.name, spec.description, base.label, value,
-                                            math.nan, "-", spec.unit))
+                                            math.nan, "-", spec.unit, u, **rule))
 
 
 def _field_section(result: BenchmarkResult, bench: Benchmark, spec, t: float, base: Run,
@@ -458,7 +656,8 @@ def _field_section(result: BenchmarkResult, bench: Benchmark, spec, t: float, ba
             unit, xlabel, ylabel = "Pa", "y (m)", "p (Pa)"
             title = f"{bench.name}: pressure along x = {spec.x:g} m, t = {frame.time:g} s"
         else:
-            mine = fld.particle_free_surface(frame, options.fluid_material, bench.dim, base.label)
+            mine = fld.particle_free_surface(frame, options.fluid_material, bench.dim, base.label,
+                                             cell=base.dx)
             unit, xlabel, ylabel = "m", "x (m)", "surface elevation (m)"
             title = f"{bench.name}: free surface, t = {frame.time:g} s"
     except CompareError as exc:
@@ -505,7 +704,13 @@ def _independent_refs(spec: MetricSpec) -> list[Reference]:
 
 def _error_against(run: Run, spec: MetricSpec, ref: Reference | Run,
                    options: Options) -> float:
+    """Relative L2 of ``run`` against ``ref``; the RMS difference (metric's unit) for a
+    zero quantity (``spec.absolute``)."""
     mine = _ours_series(run, spec)
+    if spec.absolute:
+        other = (_ours_series(ref, spec) if isinstance(ref, Run)
+                 else load_reference(ref, options.data_dir, mine.t))
+        return series_error(mine, other).rms
     if isinstance(ref, Run):
         return series_error(mine, _ours_series(ref, spec)).rel_l2
     if isinstance(ref, CsvReference) and ref.normalised and spec.normalisation:
@@ -555,7 +760,9 @@ def _convergence_section(result: BenchmarkResult, specs: Sequence[MetricSpec],
                     order, pairwise = math.nan, ()
                     note = "order needs 3 levels"
                 result.convergence.append(ConvergenceRow(
-                    solver, spec.column, "successive levels (rel. L2 of L_i vs L_i+1)",
+                    solver, spec.column,
+                    f"successive levels ({'RMS difference' if spec.absolute else 'rel. L2'} "
+                    f"of L_i vs L_i+1)",
                     levels[:-1], tuple(h[:-1]), tuple(diffs), order, pairwise, note=note))
                 curves.append(plots.Curve(np.array(h[:-1]), np.array(diffs),
                                           f"{solver} {spec.column}: successive differences"))

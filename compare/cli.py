@@ -110,6 +110,9 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--hydrostatic-depth", type=float, default=None,
                    help="also compare with rho g (H - y) for this H (m)")
     f.add_argument("--dim", type=int, default=2)
+    f.add_argument("--cell", type=float, default=None,
+                   help="free surface: occupancy grid cell (m); default: the run's dx from "
+                        "summary.json, else two particle spacings")
     f.add_argument("--plot-dir", type=Path, default=None, help="write PNG plots here")
     _common(f)
 
@@ -242,7 +245,8 @@ def _cmd_fields(args: argparse.Namespace) -> int:
             mine = fld.particle_pressure_line(frame, args.x, args.fluid_material, args.dim)
             unit = "Pa"
         else:
-            mine = fld.particle_free_surface(frame, args.fluid_material, args.dim)
+            mine = fld.particle_free_surface(frame, args.fluid_material, args.dim,
+                                             cell=args.cell if args.cell else _run_dx(args.ours))
             unit = "m"
         refs = []
         if args.hydrostatic_depth is not None:
@@ -264,6 +268,14 @@ def _cmd_fields(args: argparse.Namespace) -> int:
                                    f"{args.kind}, t = {frame.time:g} s", xl, yl)
             print(f"plot: {path}")
     return 0
+
+
+def _run_dx(path: Path) -> float | None:
+    """The run's dx from its summary.json, when it has one."""
+    try:
+        return read_run(path, "iqmpm", need_metrics=False).dx
+    except CompareError:
+        return None
 
 
 def _load_runs(paths: Sequence[Path], solver: str) -> list[Run]:

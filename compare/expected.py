@@ -177,6 +177,9 @@ def parse_check(path: Path, bench: Benchmark, index: int, raw: Any) -> Check:
             raise _fail(path, where, f"'{value}' is not a reference of {metric} (known: "
                                      f"{', '.join(keys) or 'none'})")
         kind = "series"
+        if series.absolute and margin is not None and margin.kind == "relative":
+            raise _fail(path, where, f"'{metric}' is a zero quantity compared in its unit "
+                                     f"(absolute): give an absolute margin (RMS difference)")
         if "reference_run" in raw:
             if not LEVEL_RE.match(value) or not isinstance(raw["reference_run"], str):
                 raise _fail(path, where, "'reference_run' (a folder beside expected.json) "
@@ -349,8 +352,9 @@ def _evaluate_one(bench: Benchmark, check: Check, base: Run | str | None,
         assert mspec is not None
         unit = mspec.unit
         label = _reference_label(mspec, str(check.value))
-        measure = f"rel. L2 vs {label}" if (check.margin is None or check.margin.kind ==
-                                             "relative") else f"RMS difference vs {label}"
+        relative = not mspec.absolute and (check.margin is None
+                                           or check.margin.kind == "relative")
+        measure = f"rel. L2 vs {label}" if relative else f"RMS difference vs {label}"
     if base is None:
         return _not_checked(check, measure, unit, label, "no IQ-MPM run at level 1 "
                             "(criteria apply at the default resolution)")

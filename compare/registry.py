@@ -65,6 +65,10 @@ class MetricSpec:
     normalisation: Normalisation | None = None
     # drop samples at t <= 0: forces and pressures exist only after the first pressure solve
     skip_initial: bool = False
+    # a quantity whose true value is zero (the rotation of a heaving symmetric body): any
+    # reference is noise about zero, so errors are absolute (RMS difference, peak difference in
+    # the metric's unit) and the relative L2 / peak error are not reported
+    absolute: bool = False
 
 
 @dataclass(frozen=True)
@@ -73,12 +77,14 @@ class ScalarSpec:
 
     ``reducer``: "first" (first sample at t > 0), "last", "max", "mean_tail" (mean over the last
     ``tail`` fraction of the run), "mean_periods" (time average over the whole periods of the
-    tail: the equilibrium of a decaying oscillation), "period" (mean period between upward mean crossings over
-    the run after ``skip``), "frequency" (1/period), "decay" (amplitude ratio per period of a
-    decaying oscillation about the mean of the last ``tail`` fraction, over its first two periods),
-    "early_period" (its mean period over the same two periods), "window_peak" (the largest mean
-    over a sliding window of ``window`` seconds, e.g. a force without its single-step spikes),
-    "integral" (the time integral up to ``until`` seconds, or over the run: an impulse). With ``subtract_column`` the series reduced
+    tail: the equilibrium of a decaying oscillation), "period" (the period of a damped sinusoid
+    fitted over the whole run, with its uncertainty), "frequency" (1/period), "decay"
+    (amplitude ratio per period of a decaying oscillation about the mean of the last ``tail``
+    fraction, over its first two periods), "early_period" (the period of a damped sinusoid
+    fitted over the first two periods from the release, with its uncertainty), "window_peak"
+    (the largest mean over a sliding window of ``window`` seconds, e.g. a force without its
+    single-step spikes), "integral" (the time integral up to ``until`` seconds, or over the
+    run: an impulse). With ``subtract_column`` the series reduced
     is ``column - subtract_column + offset`` (e.g. a draft: water level - centre height + half
     the body's height).
     """
@@ -97,6 +103,11 @@ class ScalarSpec:
     offset: float = 0.0
     window: float = 0.0  # s, for "window_peak"
     until: float | None = None  # s, for "integral"
+    # |reference| at or below this (in ``unit``) counts as zero: the error is reported as an
+    # absolute one (value - reference, with the unit), the relative one as n/a. 0: only an
+    # exact zero (the default); ``absolute=True``: always absolute.
+    zero_floor: float = 0.0
+    absolute: bool = False
 
 
 @dataclass(frozen=True)
@@ -391,7 +402,9 @@ def _floating(name: str, title: str, equilibrium_com_y: float, draft: float, rol
         metrics=(
             MetricSpec("com_y", "m", "block centre height"),
             MetricSpec("com_x", "m", "block centre x"),
-            MetricSpec("angle", "rad", "block rotation"),
+            # released level, a heaving block's rotation is zero by symmetry: both solvers'
+            # angles are noise about it, compared in radians, not relative to each other
+            MetricSpec("angle", "rad", "block rotation", absolute=not roll),
             MetricSpec("volume", "m^2", "fluid volume", against_foam=False),
         ),
         scalars=tuple(scalars),
@@ -541,6 +554,8 @@ def registry_markdown() -> str:
                 name += " in (T, Z)"
             if m.skip_initial:
                 name += ", t > 0"
+            if m.absolute:
+                name += " (absolute)"
             lines.append(f"| {b.name} | {b.foam_case or '-'} | {name} | {m.unit} | "
                          f"{'; '.join(refs) or '-'} |")
         for s in b.scalars:
@@ -553,6 +568,10 @@ def registry_markdown() -> str:
             elif s.reducer == "integral" and s.until is not None:
                 reducer = f"integral[0, {s.until:g} s]"
             src = f"summary `{s.summary_key}`" if s.summary_key else f"{reducer}({series})"
+            if s.absolute:
+                src += " (absolute)"
+            elif s.zero_floor > 0:
+                src += f" (absolute when the reference is within {s.zero_floor:g} {s.unit} of 0)"
             if s.reference is not None:
                 ref = (f"{s.reference:g}" if s.reference_label == f"{s.reference:g}"
                        else f"{s.reference_label} = {s.reference:g}")

@@ -29,6 +29,13 @@ def with_unit(x: float | None, unit: str) -> str:
     return fmt(x) if unit in ("-", "") else f"{fmt(x)} {unit}"
 
 
+def with_uncertainty(x: float | None, u: float | None, unit: str) -> str:
+    """``x ± u unit`` (u: expanded uncertainty), or ``x unit`` without one."""
+    if u is None or not math.isfinite(u) or x is None or not math.isfinite(x):
+        return with_unit(x, unit)
+    return with_unit(x, "") + f" ± {with_unit(u, unit)}"
+
+
 def pct(x: float | None) -> str:
     if x is None or not math.isfinite(x):
         return "n/a"
@@ -170,27 +177,40 @@ def write_report(result: BenchmarkResult, out_dir: Path, extra_status: Sequence[
         lines += ["### Time series", "",
                   "rel. L2 = sqrt(int (y - r)^2 dt / int r^2 dt) over the common window; "
                   "peak = sample of largest magnitude in the window; peak error = "
-                  "(peak - peak_ref) / |peak_ref|; peak time error = t_peak - t_peak_ref.", ""]
+                  "(peak - peak_ref) / |peak_ref|; peak time error = t_peak - t_peak_ref. "
+                  "A quantity whose true value is zero (marked *absolute*: the rotation of a "
+                  "heaving block) has only the absolute errors: its RMS difference and "
+                  "peaks in its unit.", ""]
         rows = []
         for s in result.series_rows:
             e = s.error
-            rows.append([f"`{s.metric}`", s.run, s.against,
+            absolute = s.absolute
+            rows.append([f"`{s.metric}`" + (" (absolute)" if absolute else ""), s.run, s.against,
                          f"[{fmt(e.window[0])}, {fmt(e.window[1])}]" + ("" if s.t_unit == "-" else f" {s.t_unit}"), str(e.n_points),
-                         pct(e.rel_l2), with_unit(e.rms, s.unit),
+                         "n/a" if absolute else pct(e.rel_l2), with_unit(e.rms, s.unit),
                          with_unit(e.peak_ours, s.unit), with_unit(e.peak_ref, s.unit),
-                         pct(e.peak_rel_error), with_unit(e.peak_time_error, s.t_unit)])
+                         "n/a" if absolute else pct(e.peak_rel_error),
+                         with_unit(e.peak_time_error, s.t_unit)])
         lines += _table(["metric", "run", "against", "window", "points", "rel. L2 (%)",
                          "RMS difference", "peak", "peak (ref)", "peak error (%)",
                          "peak time error"], rows)
         lines.append("")
     if result.scalar_rows:
-        lines += ["### Scalars", ""]
-        rows = [[f"`{s.name}`", s.description, s.run, with_unit(s.value, s.unit),
-                 with_unit(s.reference, s.unit) + (f" ({s.against})"
-                                                   if s.against != fmt(s.reference) else ""),
-                 pct(s.rel_error), with_unit(s.abs_error, s.unit)] for s in result.scalar_rows]
+        lines += ["### Scalars", "",
+                  "± : expanded uncertainty (k = 2) of a fitted period or frequency. "
+                  "*beyond uncertainty*: |value - reference| > sqrt(U_value^2 + U_reference^2) "
+                  "(`no`: the difference is within the estimates' own uncertainty); `-` without "
+                  "an uncertainty. A zero reference (or one within the quantity's noise floor) "
+                  "has only the absolute error.", ""]
+        rows = [[f"`{s.name}`", s.description, s.run,
+                 with_uncertainty(s.value, s.uncertainty, s.unit),
+                 with_uncertainty(s.reference, s.reference_uncertainty, s.unit)
+                 + (f" ({s.against})" if s.against != fmt(s.reference) else ""),
+                 pct(s.rel_error), with_unit(s.abs_error, s.unit),
+                 {True: "yes", False: "no", None: "-"}[s.beyond_uncertainty]]
+                for s in result.scalar_rows]
         lines += _table(["quantity", "description", "run", "value", "reference",
-                         "rel. error (%)", "abs. error"], rows)
+                         "rel. error (%)", "abs. error", "beyond uncertainty"], rows)
         lines.append("")
     if result.field_rows:
         lines += ["### Fields", "",
@@ -314,7 +334,10 @@ def checks_cell(checks: Sequence[exp.CheckResult]) -> str:
 def headline(result: BenchmarkResult) -> str:
     parts = []
     for s in result.series_rows[:4]:
-        parts.append(f"{s.metric} vs {s.against}: {pct(s.error.rel_l2)} %")
+        if s.absolute:
+            parts.append(f"{s.metric} vs {s.against}: RMS {with_unit(s.error.rms, s.unit)}")
+        else:
+            parts.append(f"{s.metric} vs {s.against}: {pct(s.error.rel_l2)} %")
     for s in result.scalar_rows[:2]:
         if math.isfinite(s.rel_error):
             parts.append(f"{s.name}: {pct(s.rel_error)} %")

@@ -24,11 +24,28 @@ so every check here is computed from the outputs (``metrics.csv``, ``summary.jso
 first and last particle frames) and from the scene as run (``summary.json`` ``scene``,
 after ``--set``), never from the solver's verdicts. The thresholds, and why:
 
-* **volume** (every scene): ``|volume_drift|`` (the region the water fills) below a bound
-  per scene, a few times the drift of the validated default run over the same time so
-  that only a gross loss is *wrong*: floating block 5 % (default run -0.25 % over 5 s;
-  criterion 1 %), elastic gate 10 % (default -2.5 % over 0.4 s), dam break 15 % (default
-  -6.6 % at 0.3 s: the region measure of a thin splashing film falls, -14.6 % at 0.6 s).
+* **volume** (every scene): the area (volume in 3-D) of the bins of size dx (the grid
+  spacing, from ``domain.min``) that hold at least one fluid particle, last frame against
+  first: ``|drift|`` below a bound per scene, a few times the drift of the validated
+  default run over the same time so that only a gross loss is *wrong*: floating block 3 %
+  (default run +0.53 % at 0.5 s; +0.65 % at the coarse dx), elastic gate 10 % (+1.70 % at
+  0.12 s; +2.68 % coarse), dam break 10 % (-3.47 % at 0.3 s; -3.13 % coarse: the particles
+  crowd in the surge, up to 15 in a bin at 0.3 s for 4 at the start). Measured with
+  ``fluid_bin_volume`` on the scene files as they are, end time and ``frame_rate 0`` set
+  (2026-12-02). 58 cells of the grid sampled around the wrong ones of the 8d97ea2 map
+  (the 39 of them that ran to the end) stayed within -3.0..-6.1 % (dam break; -6.1 % at
+  CFL 1, dt_max 1e-2), -0.2..+1.6 % (floating block), +0.1..+2.5 % (gate). What it
+  sees: a bin counts whole as soon as it holds one particle, so particles moving within
+  their bins change nothing, water squeezed into fewer bins (compressed) or
+  gone (lost) counts less, and a bin cut by the free surface or holding a splashing sheet
+  counts whole, so spray and thin sheets raise the measure: the check guards against lost
+  or compressed water; a gain within the bound is the surface's and the splashes' bins
+  (beyond it: water spread into many more bins than it filled, also not physical).
+  Why not the solver's own ``volume_drift`` (a region measure on the grid): the map does
+  not trust the solver's measures, and that one counts the cells next to a solid short:
+  on the heavy soft block (rho_s 10000, E 1e4, dx 0.02, CFL 1, dt_max 1e-2, 0.5 s) it fell
+  5.1-5.8 % while the water's bins went 0.4960 -> 0.4952 m^2 (-0.16 %; 0.4976 in the map run). The check's detail
+  shows it, as information only.
 * **energy** (every scene): kinetic energy of the last frame <= kinetic + potential
   energy released since the first frame, + 0.5 % of the first frame's potential energy
   above the floor. Elastic energy and dissipation are >= 0 and the walls and clamps do no
@@ -50,13 +67,32 @@ after ``--set``), never from the solver's verdicts. The thresholds, and why:
   sinks: the final centre is at least h below the start (a free fall in water covers that
   in about 0.2 s) and the body is not below the floor by more than dx.
 * **gate** (elastic gate, at the end of the run, quasi-static): the water height behind
-  the gate H (fluid particles upstream of it in the last frame, their area over the
-  upstream width) loads the free part (length L, clamp to floor) with the hydrostatic
+  the gate H, from the last frame's particles and the gate where it is now, not where it
+  started: the gate's particles are binned by height in bands of one particle spacing
+  (dx / particles_per_axis) from the floor, and per band the least x of its particles is
+  the gate's position there (a band without gate particles: interpolated between its
+  neighbours); a fluid particle is upstream when it lies left of that position in its band
+  (below the gate's lowest band: of the lowest band; above its top band: of the top band),
+  and H is the level to which the upstream particles' area (count x spacing^2) fills the
+  region from the left wall to the gate's upstream face (per band its least x less half a
+  spacing): area = sum over the bands below H of (face - x_min) x band height,
+  interpolated within the band where H ends. (The initial face and width hold for a gate
+  that has not moved: a gate swinging back into the water puts its own material left of
+  its initial face, which then reads as missing water: 0.127 m for 0.130 m in the test.
+  A gate bent downstream with still water gives the same H either way: the water's level
+  is the same left and right of the initial face.) H loads the free part (length L, clamp to floor) with the hydrostatic
   force F_h = rho_f g int_0^L (H - y)+ dy and would bend a linear cantilever (plane
   strain E' = E / (1 - nu^2), I = t^3/12) to w_lin = int q(s) s^2 (3L - s) ds / (6 E' I).
   The means over the last 20 % of the run of ``gate_force_x`` and ``gate_tip_dx`` must
-  satisfy: force <= 2 F_h always (water that starts at rest, pushing a gate that moves
-  away from it, cannot push harder than twice its static load); while the gate holds the water (w_lin <= L/2, where the
+  satisfy: force <= 2 F_h0 always, F_h0 the load of the first frame's level H0 (water
+  released at rest is a step load, and the level behind the gate only falls, so F_h0 is
+  the largest static load of the run; on a linear elastic gate of mass m_g with the
+  water's added mass m_a, x = x_s (1 - cos wt) and the interface force m_g x'' + k x =
+  F_h0 (1 - m_a / (m_a + m_g) cos wt) never exceeds 2 F_h0. A heavy gate swinging back
+  into the water pushes on it, so the bound is not one on the current level's F_h: the
+  heavy soft gate (rho_s 10 000, E 1 MPa) reads 137-150 N/m at the end with H 0.128 m,
+  F_h 68.5 and F_h0 77.9 N/m, the water's x momentum reversing from +0.65 to -0.73 N s/m
+  between 0.09 and 0.12 s); while the gate holds the water (w_lin <= L/2, where the
   linear theory holds) force >= 0.5 F_h and 0.25 w_lin - 0.1 dx <= tip <= 3 w_lin +
   0.1 dx (a suddenly applied load overshoots the static deflection by at most 2; the
   default run sits at force 0.9 F_h and tip 1.1-1.3 w_lin from 0.08 s on; a gate that
@@ -104,7 +140,7 @@ CLASS_MARKS = {STABLE: "S", ADAPTED: "A", STOPPED: "D", WRONG: "W", NO_RESULT: "
 CLASS_COLOURS = {STABLE: "#4daf4a", ADAPTED: "#377eb8", STOPPED: "#ffbf00", WRONG: "#e41a1c",
                  NO_RESULT: "#6a3d9a"}
 
-VOLUME_BOUND = {"floating_block": 0.05, "elastic_gate": 0.10, "dam_break": 0.15}
+VOLUME_BOUND = {"floating_block": 0.03, "elastic_gate": 0.10, "dam_break": 0.10}  # |drift| of fluid bins
 ENERGY_TOLERANCE = 0.005  # of the first frame's potential energy above the floor
 INTEGRITY_LINK = 3.0  # particle spacings
 FIRST_FRAME, LAST_FRAME = 0, -1
@@ -281,12 +317,37 @@ def _tail_mean(metrics: Metrics, name: str, fraction: float) -> float:
     return float(np.nanmean(metrics.column(name)[keep]))
 
 
-def check_volume(summary: dict[str, Any], kind: str) -> Check:
+def fluid_bin_volume(frame, facts: SceneFacts) -> float:
+    """Area (volume in 3-D) of the bins of size dx (``facts.dx``, the grid spacing; from
+    ``domain.min``) that hold at least one fluid particle (material 0) of ``frame``.
+
+    Independent of the solver's own measures. A bin counts whole as soon as it holds one
+    particle, so moving particles within their bins changes nothing, while water squeezed
+    into fewer bins (compressed) or gone (lost) counts less; a bin cut by a free surface
+    or holding a splashing sheet counts whole too, so spray and thin sheets raise it."""
+    points = frame.points[frame.material == 0, :facts.dim]
+    if len(points) == 0:
+        return 0.0
+    origin = np.asarray(facts.scene["domain"]["min"], dtype=float)[:facts.dim]
+    bins = np.floor((points - origin) / facts.dx).astype(np.int64)
+    return len(np.unique(bins, axis=0)) * facts.dx ** facts.dim
+
+
+def check_volume(first, last, facts: SceneFacts, kind: str,
+                 summary: dict[str, Any] | None = None) -> Check:
+    """Fluid volume of the last frame against the first (``fluid_bin_volume``), relative
+    drift within the scene's bound (module docstring). The solver's own ``volume_drift``
+    is shown in the detail, as information only."""
     bound = VOLUME_BOUND.get(kind, 0.05)
-    drift = summary.get("volume_drift")
-    if not isinstance(drift, (int, float)) or not math.isfinite(drift):
-        return Check("volume", False, f"volume_drift missing or not finite ({drift!r})")
-    return Check("volume", abs(drift) <= bound, f"drift {drift:+.2%} (bound {bound:.0%})")
+    v0, v1 = fluid_bin_volume(first, facts), fluid_bin_volume(last, facts)
+    solver = (summary or {}).get("volume_drift")
+    info = (f"; solver's volume_drift {solver:+.2%}, not checked"
+            if isinstance(solver, (int, float)) and math.isfinite(solver) else "")
+    if not v0 > 0:
+        return Check("volume", False, f"no fluid particle in the first frame{info}")
+    drift = (v1 - v0) / v0
+    return Check("volume", abs(drift) <= bound,
+                 f"fluid bins {v0:.5g} -> {v1:.5g}: drift {drift:+.2%} (bound {bound:.0%}){info}")
 
 
 def check_energy(first, last, facts: SceneFacts) -> Check:
@@ -390,28 +451,75 @@ def hydrostatic_gate_load(water_height: float, gate: dict[str, float], rho: floa
     return force, tip
 
 
-def check_gate(metrics: Metrics, last, facts: SceneFacts) -> list[Check]:
+def gate_band_faces(last, facts: SceneFacts) -> tuple[float, np.ndarray]:
+    """The gate's current position per height band: (floor, x of each band).
+
+    The gate's particles (solid 0) are binned by y in bands of one particle spacing from
+    the floor (``domain.min`` y); per band the least x of its gate particles (the centres
+    of the upstream layer). Bands between the lowest and the top band that hold no gate
+    particle take the value interpolated between their neighbours; bands below the
+    lowest take the lowest band's, bands above the top the top band's."""
+    spacing = facts.particle_spacing
+    floor = float(facts.scene["domain"]["min"][1])
+    gate = last.points[last.material == 1, :2]
+    if len(gate) == 0:
+        raise CompareError("no particle of the gate in the last frame")
+    band = np.maximum(np.floor((gate[:, 1] - floor) / spacing).astype(int), 0)  # below: 0
+    least = np.full(band.max() + 1, np.inf)
+    np.minimum.at(least, band, gate[:, 0])
+    held = np.flatnonzero(np.isfinite(least))
+    faces = np.interp(np.arange(len(least)), held, least[held])
+    return floor, faces
+
+
+def upstream_water_height(last, facts: SceneFacts) -> tuple[float, int]:
+    """(H, number of upstream fluid particles): the level of the water behind the gate
+    in its current, possibly bent, position (module docstring, gate).
+
+    A fluid particle is upstream when it lies left of the gate's particles of its height
+    band (below the gate's lowest band: of the lowest band; above its top: of the top
+    band). H is the level to which their area (count x spacing^2) fills the region between
+    the left wall and the gate's current upstream face, per band the band's least gate x
+    less half a spacing: area = sum over the bands below H of (face - x_min) x spacing,
+    interpolated within the band that H ends in (above the gate's top band: that band's
+    width)."""
+    spacing = facts.particle_spacing
+    x_min = float(facts.scene["domain"]["min"][0])
+    floor, faces = gate_band_faces(last, facts)
+    fluid = last.points[last.material == 0, :2]
+    band = np.clip(np.floor((fluid[:, 1] - floor) / spacing).astype(int), 0, len(faces) - 1)
+    count = int(np.count_nonzero(fluid[:, 0] < faces[band]))
+    area = count * spacing ** 2
+    widths = np.clip(faces - 0.5 * spacing - x_min, 0.0, None)
+    filled = np.concatenate([[0.0], np.cumsum(widths * spacing)])  # area below band k
+    k = int(np.searchsorted(filled, area, side="right")) - 1  # the band H ends in
+    if k >= len(widths):  # above the gate's top band: at its width
+        return floor + len(widths) * spacing + (area - filled[-1]) / max(widths[-1], 1e-300), count
+    return floor + k * spacing + (area - filled[k]) / max(widths[k], 1e-300), count
+
+
+def check_gate(metrics: Metrics, first, last, facts: SceneFacts) -> list[Check]:
     """Elastic gate: force and tip against the water still behind it (module docstring)."""
     gate = _cantilever(facts)
     length, dx = gate["length"], facts.dx
-    x_min = float(facts.scene["domain"]["min"][0])
-    upstream = (last.material == 0) & (last.points[:, 0] < gate["x_face"])
-    water_height = upstream.sum() * facts.particle_spacing ** 2 / (gate["x_face"] - x_min)
+    water_height, _ = upstream_water_height(last, facts)
     if water_height < length / 4:
         return [Check("gate", True, f"not loaded: {water_height:.3f} m of water behind it")]
     g = float(np.linalg.norm(facts.gravity))
     force_h, tip_lin = hydrostatic_gate_load(water_height, gate, facts.fluid_density, g)
+    force_h0, _ = hydrostatic_gate_load(upstream_water_height(first, facts)[0], gate, facts.fluid_density, g)
     force = _tail_mean(metrics, "gate_force_x", 0.2)
     tip = _tail_mean(metrics, "gate_tip_dx", 0.2)
-    state = f"H {water_height:.3f} m, F_h {force_h:.3g} N/m, w_lin {tip_lin * 1e3:.3g} mm"
+    state = (f"H {water_height:.3f} m, F_h {force_h:.3g} N/m, F_h0 {force_h0:.3g} N/m, "
+             f"w_lin {tip_lin * 1e3:.3g} mm")
     if tip_lin <= length / 2:  # holds the water: hydrostatic load and linear bending
-        force_ok = 0.5 * force_h <= force <= 2 * force_h
+        force_ok = 0.5 * force_h <= force <= 2 * force_h0
         tip_low, tip_high = 0.25 * tip_lin - 0.1 * dx, 3 * tip_lin + 0.1 * dx
-        force_text = f"force {force:.3g} N/m in [{0.5 * force_h:.3g}, {2 * force_h:.3g}]"
+        force_text = f"force {force:.3g} N/m in [{0.5 * force_h:.3g}, {2 * force_h0:.3g}]"
     else:  # a soft gate must be open
-        force_ok = force <= 2 * force_h
+        force_ok = force <= 2 * force_h0
         tip_low, tip_high = length / 8, 1.5 * length
-        force_text = f"force {force:.3g} N/m <= {2 * force_h:.3g}"
+        force_text = f"force {force:.3g} N/m <= {2 * force_h0:.3g}"
     tip_ok = tip_low <= tip <= tip_high
     return [Check("gate force", force_ok and math.isfinite(force), f"{force_text} ({state})"),
             Check("gate tip", tip_ok and math.isfinite(tip),
@@ -439,7 +547,7 @@ def physics_checks(run_dir: Path, kind: str, summary: dict[str, Any]) -> list[Ch
     if not isinstance(scene, dict) or "dx" not in scene:
         return [Check("outputs", False, "summary.json has no 'scene' with 'dx'")]
     facts = SceneFacts.of(scene)
-    checks = [check_volume(summary, kind)]
+    checks: list[Check] = []
     try:
         metrics = read_metrics(run_dir)
         times = read_frame_times(run_dir)
@@ -449,13 +557,14 @@ def physics_checks(run_dir: Path, kind: str, summary: dict[str, Any]) -> list[Ch
                        for f, t in (times[FIRST_FRAME], times[LAST_FRAME]))
     except CompareError as exc:
         return checks + [Check("outputs", False, str(exc))]
+    checks.append(check_volume(first, last, facts, kind, summary))
     checks.append(check_energy(first, last, facts))
     checks += check_integrity(last, facts)
     try:
         if kind == "floating_block":
             checks.append(check_archimedes(metrics, facts))
         elif kind == "elastic_gate":
-            checks += check_gate(metrics, last, facts)
+            checks += check_gate(metrics, first, last, facts)
         elif kind == "dam_break":
             checks.append(check_front(metrics, facts))
     except (CompareError, KeyError, IndexError) as exc:
