@@ -187,14 +187,19 @@ class PressureSystem {
     return v;
   }
 
-  // D^T lambda per stacked velocity entry: the constraints' force on it (v^{n+1} = v* -
-  // dt M^-1 D^T lambda), with released rows' multipliers exactly zero (an iterative solve
-  // leaves them at the tolerance).
-  Eigen::VectorXd constraint_force(const Eigen::VectorXd& solution) const {
+  // The multipliers that act: the solution's first unknowns() entries with those of
+  // released and vacant rows exactly zero (an iterative solve leaves them at its tolerance).
+  Eigen::VectorXd acting_multipliers(const Eigen::VectorXd& solution) const {
     Eigen::VectorXd lambda = solution.head(rows_);
     for (int i = 0; i < rows_; ++i)
       if (released(i) || vacant(i)) lambda[i] = 0;
-    return constraint_.transpose() * lambda;
+    return lambda;
+  }
+
+  // D^T lambda per stacked velocity entry: the constraints' force on it (v^{n+1} = v* -
+  // dt M^-1 D^T lambda), from the acting multipliers.
+  Eigen::VectorXd constraint_force(const Eigen::VectorXd& solution) const {
+    return constraint_.transpose() * acting_multipliers(solution);
   }
 
   // How far the corrected velocities miss the constraints (a health check): per enforced

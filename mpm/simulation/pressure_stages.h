@@ -258,12 +258,11 @@ void Simulation<dim>::measure_interface_forces() {
     particle_force_.assign(solid_.size(), Vec<dim>::Zero());
     return;
   }
+  const Eigen::VectorXd acting = system_.acting_multipliers(lambda_);
   Eigen::VectorXd coupling = Eigen::VectorXd::Zero(system_.unknowns());
-  coupling.segment(layout_.interface, iq_ops_.multipliers()) = lambda_.segment(layout_.interface, iq_ops_.multipliers());
+  coupling.segment(layout_.interface, iq_ops_.multipliers()) = acting.segment(layout_.interface, iq_ops_.multipliers());
   if (!ops_.solid_corner_gradient.empty())
-    coupling.segment(layout_.pressure, ops_.pressure_unknowns()) = lambda_.segment(layout_.pressure, ops_.pressure_unknowns());
-  for (int i = 0; i < system_.unknowns(); ++i)  // no force acts through these (an iterative solve leaves them at its tolerance)
-    if (system_.released(i) || system_.vacant(i)) coupling[i] = 0;
+    coupling.segment(layout_.pressure, ops_.pressure_unknowns()) = acting.segment(layout_.pressure, ops_.pressure_unknowns());
   const Eigen::VectorXd nodal = -(system_.constraint().transpose() * coupling);
   particle_force_ = interface_force_on_particles(grid_, solid_, node_momentum_.mass, solid_ops_, nodal);
 }
