@@ -25,11 +25,51 @@
 
 namespace iqmpm {
 
-// Moves the fluid particles (and sorts them by cell); the caller keeps them in the domain.
+// Per pressure row of `ops`: the target of G^fT d = -integral of div d over the cell,
+// -relaxation (phi - 1) dx^dim, phi the volume in the cell (`volume`, per dual cell) over
+// the cell's. Cells next to empty space may be partly empty: only expanded, never compressed.
+template <int dim>
+std::vector<Real> position_correction_targets(const Grid<dim>& grid, const FluidOperators<dim>& ops,
+                                              const std::vector<Real>& volume, Real relaxation) {
+  const Real cell_volume = grid.cell_volume();
+  std::vector<Real> target(ops.pressure_unknowns(), 0);
+  for (int i = 0; i < ops.pressure_unknowns(); ++i) {
+    Real excess = volume[ops.cell_of_pressure[i]] / cell_volume - 1;
+    if (!ops.interior[i]) excess = std::max(excess, Real(0));
+    target[i] = -relaxation * excess * cell_volume;
+  }
+  return target;
+}
+
+// Moves each fluid particle by the N1 interpolation of the corner displacement d, stacked
+// per fluid velocity unknown of `ops` from `offset` on, each corner's at most
+// `largest_step` long.
+template <int dim>
+void displace_fluid_particles(const Grid<dim>& grid, const FluidOperators<dim>& ops, const Eigen::VectorXd& displacement,
+                              int offset, Real largest_step, Particles<dim>& fluid) {
+  const GridLayout<dim> corners = grid.corners();
+  std::vector<Vec<dim>> corner_displacement(corners.size(), Vec<dim>::Zero());
+  for (int d = 0; d < ops.velocity_dofs(); ++d) {
+    Vec<dim>& step = corner_displacement[ops.corner_of_dof[d]];
+    for (int a = 0; a < dim; ++a) step[a] = displacement[offset + d * dim + a];
+    if (step.norm() > largest_step) step *= largest_step / step.norm();
+  }
+  const int n = int(fluid.size());
+#pragma omp parallel for schedule(static)
+  for (int p = 0; p < n; ++p) {
+    const auto stencil = linear_stencil<dim>(grid.to_cells(fluid.position[p]), grid.dx);
+    Vec<dim> shift = Vec<dim>::Zero();
+    for_each_offset<dim, 2>([&](const IVec<dim>& o) { shift += stencil.weight(o) * corner_displacement[corners.index(stencil.base + o)]; });
+    fluid.position[p] += shift;
+  }
+}
+
+// Moves the fluid particles (and sorts them by cell), each corner by at most
+// `largest_step`; the caller keeps them in the domain.
 template <int dim>
 void correct_fluid_positions(const Grid<dim>& grid, Particles<dim>& fluid, const Particles<dim>& solid,
                              const std::array<std::array<bool, 2>, dim>& slip, Real density, Real relaxation,
-                             const LinearSolverOptions& solver_options) {
+                             Real largest_step, const LinearSolverOptions& solver_options) {
   const ParticleBins<dim> bins = sort_particles_by_cell(grid, fluid);
   GridMomentum<dim> momentum;
   fluid_particles_to_grid(grid, fluid, bins, momentum);
@@ -65,16 +105,10 @@ void correct_fluid_positions(const Grid<dim>& grid, Particles<dim>& fluid, const
         }
     }
   }
-  std::vector<Real> target(np + ops.wall_faces.size() + solid_faces, 0);
-  for (int i = 0; i < np; ++i) {
-    const int cell = ops.cell_of_pressure[i];
-    Real volume = solid_volume.empty() ? 0 : solid_volume[cell];
-    for (int p = bins.begin(cell); p < bins.end(cell); ++p) volume += fluid.initial_volume[p];
-    Real excess = volume / cell_volume - 1;
-    if (!ops.interior[i]) excess = std::max(excess, Real(0));
-    // G^fT d = -integral of div d.
-    target[i] = -relaxation * excess * cell_volume;
-  }
+  std::vector<Real> volume = particle_volume_per_cell(grid, fluid, false);
+  for (std::size_t k = 0; k < solid_volume.size(); ++k) volume[k] += solid_volume[k];
+  std::vector<Real> target = position_correction_targets(grid, ops, volume, relaxation);
+  target.resize(np + ops.wall_faces.size() + solid_faces, 0);
   Eigen::VectorXd inverse_mass(nv * dim);
   for (int d = 0; d < nv; ++d)
     for (int a = 0; a < dim; ++a) inverse_mass[d * dim + a] = 1 / ops.mass[d];
@@ -91,19 +125,8 @@ void correct_fluid_positions(const Grid<dim>& grid, Particles<dim>& fluid, const
   const auto stats = solver->solve(correction.matrix(), rhs, q);
   if (!stats.converged || !q.allFinite())
     throw NumericalFailure(fmt::format("position correction solve did not converge (relative residual {:.3g})", stats.relative_residual));
-  const Eigen::VectorXd displacement = correction.corrected_velocity(Eigen::VectorXd::Zero(nv * dim), q);
-  std::vector<Vec<dim>> corner_displacement(grid.corners().size(), Vec<dim>::Zero());
-  for (int d = 0; d < nv; ++d)
-    for (int a = 0; a < dim; ++a) corner_displacement[ops.corner_of_dof[d]][a] = displacement[d * dim + a];
-  const GridLayout<dim> corners = grid.corners();
-  const int n = int(fluid.size());
-#pragma omp parallel for schedule(static)
-  for (int p = 0; p < n; ++p) {
-    const auto stencil = linear_stencil<dim>(grid.to_cells(fluid.position[p]), grid.dx);
-    Vec<dim> shift = Vec<dim>::Zero();
-    for_each_offset<dim, 2>([&](const IVec<dim>& offset) { shift += stencil.weight(offset) * corner_displacement[corners.index(stencil.base + offset)]; });
-    fluid.position[p] += shift;
-  }
+  displace_fluid_particles(grid, ops, correction.corrected_velocity(Eigen::VectorXd::Zero(nv * dim), q), 0, largest_step,
+                           fluid);
 }
 
 }  // namespace iqmpm

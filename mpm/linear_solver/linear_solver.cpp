@@ -202,6 +202,16 @@ class UpdatableLdlSolver final : public LinearSolver {
     changes_pending_ = true;
   }
 
+  LinearSolveStats solve_again(const Sparse& A, const Eigen::VectorXd& b, Eigen::VectorXd& x) override {
+    if (!factor_valid_ || changes_pending_ || !pattern_.matches(A)) return solve(A, b, x);
+    LinearSolveStats stats;
+    stats.method = name();
+    solve_with_factor(b, x);
+    stats.relative_residual = residual(A, b, x);
+    stats.converged = std::isfinite(stats.relative_residual);
+    return stats;
+  }
+
   LinearSolveStats solve(const Sparse& A, const Eigen::VectorXd& b, Eigen::VectorXd& x) override {
     LinearSolveStats stats;
     stats.method = name();

@@ -48,6 +48,11 @@ class LinearSolver {
   // x holds the initial guess on entry (zero or the warm start) and the solution on exit.
   virtual LinearSolveStats solve(const Eigen::SparseMatrix<Real>& A, const Eigen::VectorXd& b,
                                  Eigen::VectorXd& x) = 0;
+  // Another right-hand side for the matrix of the last solve (same values): a direct
+  // solver reuses its factor (two triangular solves); the others solve afresh.
+  virtual LinearSolveStats solve_again(const Eigen::SparseMatrix<Real>& A, const Eigen::VectorXd& b, Eigen::VectorXd& x) {
+    return solve(A, b, x);
+  }
   // LDL^T also solves symmetric quasi-definite systems; CG and LL^T need SPD ones.
   virtual bool solves_quasi_definite() const = 0;
   // The method, as LinearSolveStats::method. A direct solver keeps its symbolic analysis

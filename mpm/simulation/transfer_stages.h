@@ -81,12 +81,35 @@ void Simulation<dim>::grid_to_particles(Real dt) {
   keep_particles_in_domain(solid_, "solid");
 }
 
-// §3 step 6 (fluid/position_correction.h).
+// §3 step 6 (fluid/position_correction.h). Without solids the correction's constraints
+// are the rows of this step's system (p_f and walls, with the same M^f), so its matrix is
+// A / dt and the pressure solve's factor serves it: A lambda = -target gives the
+// displacement d = -dt M^-1 D^T lambda with D d = target (method.md#position-correction).
+// With solids the correction has rows of its own (faces towards the body) and one more
+// system is built after the particles moved. A corner moves at most half the particle
+// spacing a step: the mass-weighted correction puts its displacement on the lightest
+// corners, which without a bound pushed a particle a cell through a wall.
 template <int dim>
 void Simulation<dim>::correct_fluid_positions() {
   auto scope = timer_.scope("position correction");
-  iqmpm::correct_fluid_positions<dim>(grid_, fluid_, solid_, slip_, options_.fluid_density, options_.position_correction,
-                                 options_.pressure_solver);
+  const Real largest_step = Real(0.5) * grid_.dx / scene_.particles_per_axis;
+  if (has_solids()) {
+    iqmpm::correct_fluid_positions<dim>(grid_, fluid_, solid_, slip_, options_.fluid_density, options_.position_correction,
+                                        largest_step, options_.pressure_solver);
+  } else {
+    const std::vector<Real> target =
+        position_correction_targets(grid_, ops_, particle_volume_per_cell(grid_, fluid_, false), options_.position_correction);
+    Eigen::VectorXd rhs = Eigen::VectorXd::Zero(system_.size());
+    for (int i = 0; i < ops_.pressure_unknowns(); ++i)
+      if (!system_.vacant(layout_.pressure + i)) rhs[layout_.pressure + i] = -target[i];
+    Eigen::VectorXd multipliers = Eigen::VectorXd::Zero(system_.size());
+    const LinearSolveStats stats = pressure_solver_->solve_again(system_.matrix(), rhs, multipliers);
+    if (!stats.converged || !multipliers.allFinite())
+      throw NumericalFailure(fmt::format("position correction solve ({}) did not converge (relative residual {:.3g})",
+                                         stats.method, stats.relative_residual));
+    displace_fluid_particles(grid_, ops_, system_.corrected_velocity(Eigen::VectorXd::Zero(velocity_star_.size()), multipliers),
+                             fluid_column_offset_, largest_step, fluid_);
+  }
   keep_particles_in_domain(fluid_, "fluid");
 }
 

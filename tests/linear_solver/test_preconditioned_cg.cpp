@@ -190,5 +190,31 @@ TEST(PressureSolversTest, IterationsDoNotDependOnThreadCount) {
   EXPECT_EQ(solutions[0], solutions[1]);
 }
 
+// solve_again: a second right-hand side for the matrix of the last solve (the position
+// correction's, method.md#position-correction) against a dense solve, from every method;
+// LDL^T answers it from its kept factor.
+TEST(PressureSolversTest, SolveAgainMatchesADenseSolve) {
+  const SparseMatrix A = random_pressure_system(80, 200, 7);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<Real> uniform(-1, 1);
+  const Eigen::VectorXd first = Eigen::VectorXd::NullaryExpr(A.rows(), [&] { return uniform(rng); });
+  const Eigen::VectorXd second = Eigen::VectorXd::NullaryExpr(A.rows(), [&] { return uniform(rng); });
+  const Eigen::VectorXd dense = Eigen::MatrixXd(A).llt().solve(second);
+  for (const auto method : {LinearSolverMethod::pcg, LinearSolverMethod::ldlt, LinearSolverMethod::cholmod}) {
+    LinearSolverOptions options;
+    options.method = method;
+    options.tolerance = 1e-12;
+    auto solver = make_linear_solver(options, int(A.rows()), 2);
+    SCOPED_TRACE(solver->name());
+    Eigen::VectorXd x = Eigen::VectorXd::Zero(A.rows());
+    ASSERT_TRUE(solver->solve(A, first, x).converged);
+    Eigen::VectorXd y = Eigen::VectorXd::Zero(A.rows());
+    const LinearSolveStats stats = solver->solve_again(A, second, y);
+    ASSERT_TRUE(stats.converged);
+    EXPECT_LT((y - dense).norm(), 1e-9 * dense.norm());
+    EXPECT_LT(stats.relative_residual, 1e-10);
+  }
+}
+
 }  // namespace
 }  // namespace iqmpm
