@@ -9,7 +9,10 @@
 // With solids, phi counts the solid particles' current volume too (the reference code
 // does the same), so water crowded against or into a body is spread back out, and a
 // fluid cell's face towards a cell that is at least half solid and holds no fluid gets a
-// wall row (no displacement through it), so the correction never pushes water into a body.
+// wall row (no displacement through it), so the correction never pushes water into a body:
+// correct_fluid_positions builds that system. Without solids the rows are the pressure
+// system's own, and the simulation solves them with the step's factor
+// (Simulation::correct_fluid_positions, method.md#position-correction).
 #pragma once
 
 #include <array>
