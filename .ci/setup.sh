@@ -6,7 +6,7 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
 packages=(
   build-essential cmake pkg-config
-  libeigen3-dev libsuitesparse-dev libopenblas0-openmp libhdf5-dev libgtest-dev
+  libeigen3-dev libsuitesparse-dev libhypre-dev libopenmpi-dev libopenblas0-openmp libhdf5-dev libgtest-dev
   nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev
   python3 python3-numpy python3-scipy python3-h5py python3-meshio python3-matplotlib python3-pytest
   libtorch-dev python3-torch

@@ -19,11 +19,19 @@ What it measures
                    (IC(0)), to t = --end-2d (0.2 s), walls as in 2-D by default (faces)
       2d_corners   the same with fluid.wall_constraint = corners
 
-How to run (from the repository root; ~5 min on one core)
+    Preconditioner variants (--variants; each series runs once per variant, in that order):
+      ic0          the scene's defaults (PCG with IC(0) where the series asks for PCG)
+      amg          solver.preconditioner = boomeramg, solver.amg_checkerboard_flip = off
+      amg_flip     solver.preconditioner = boomeramg, solver.amg_checkerboard_flip = on
+    --set KEY=VALUE adds a scene setting to every run (e.g. a BoomerAMG parameter) and --label
+    names that set-up in the run folders and the table.
+
+How to run (from the repository root; ~5 min on one core per variant)
     /usr/bin/python3 benchmarks/solvers/insolver.py --bin build/iqmpm --out out/solvers/insolver
-    [--series 3d_tank0.6,2d_faces] [--end-3d 0.1] [--end-2d 0.2] [--reuse]
+    [--series 3d_tank0.6,2d_faces] [--variants ic0,amg_flip] [--set KEY=VALUE --label NAME]
+    [--end-3d 0.1] [--end-2d 0.2] [--reuse]
     Writes OUT/insolver.md (Markdown table, also printed) and OUT/insolver.json; the runs' own
-    output folders are OUT/runs/<series>_dx<dx>.
+    output folders are OUT/runs/<series>[_<variant>][_<label>]_dx<dx>.
 """
 import argparse
 import json
@@ -31,6 +39,12 @@ import math
 import pathlib
 import subprocess
 import sys
+
+VARIANTS = {
+    "ic0": [],
+    "amg": ["solver.preconditioner=boomeramg", "solver.amg_checkerboard_flip=off"],
+    "amg_flip": ["solver.preconditioner=boomeramg", "solver.amg_checkerboard_flip=on"],
+}
 
 B3 = "benchmarks/floating_block_3d/"
 B2 = "benchmarks/dam_break/dam_break.json"
@@ -66,6 +80,10 @@ def main():
                     help="comma-separated series names (see the header)")
     ap.add_argument("--end-3d", type=float, default=0.1, help="end time of the 3-D runs (0.1 s)")
     ap.add_argument("--end-2d", type=float, default=0.2, help="end time of the 2-D runs (0.2 s)")
+    ap.add_argument("--variants", default="ic0", help="comma-separated preconditioner variants (see the header)")
+    ap.add_argument("--set", action="append", default=[], dest="extra",
+                    help="KEY=VALUE added to every run (repeatable)")
+    ap.add_argument("--label", default="", help="name of the --set set-up in run folders and the table")
     ap.add_argument("--reuse", action="store_true",
                     help="keep a run whose folder already has summary.json (re-tabulate only)")
     args = ap.parse_args()
@@ -75,46 +93,50 @@ def main():
 
     done = {}  # identical runs shared between series (the fine cube of 3d_tank1 and 3d_tank0.6)
     results = {}
-    for name in args.series.split(","):
-        rows = []
-        for scene, dx, sets in table[name]:
-            key = (scene, dx, tuple(sets))
-            if key not in done:
-                folder = out / "runs" / f"{name}_dx{dx}"
-                cmd = [args.bin, "run", scene, "-o", str(folder), "-q", "-j1",
-                       "--set", f"dx={dx}", "--set", "write_frames=false"]
-                for s in sets:
-                    cmd += ["--set", s]
-                if not (args.reuse and (folder / "summary.json").exists()):
-                    print(" ".join(cmd), file=sys.stderr, flush=True)
-                    subprocess.run(cmd, check=True)
-                s = json.loads((folder / "summary.json").read_text())
-                done[key] = {"scene": scene, "dx": dx, "sets": sets, "folder": str(folder),
-                             "steps": s["steps"], "solves": s["steps"] * s["pressure_solves"]["mean"],
-                             "t_final": s.get("t_final"),
-                             "linear_solver": s["linear_solver"],
-                             "iterations": s["linear_iterations"],
-                             "solve_s": s["stage_seconds"].get("solve", 0.0),
-                             "wall_s": s["wall_time_s"], "unknowns_max": s.get("active_cells_max"),
-                             "command": " ".join(cmd)}
-            rows.append(done[key])
-        results[name] = rows
+    suffix = f"_{args.label}" if args.label else ""
+    for variant in args.variants.split(","):
+        for name in args.series.split(","):
+            rows = []
+            for scene, dx, sets in table[name]:
+                sets = sets + VARIANTS[variant] + args.extra
+                key = (scene, dx, tuple(sets))
+                if key not in done:
+                    tag = name if variant == "ic0" else f"{name}_{variant}"
+                    folder = out / "runs" / f"{tag}{suffix}_dx{dx}"
+                    cmd = [args.bin, "run", scene, "-o", str(folder), "-q", "-j1",
+                           "--set", f"dx={dx}", "--set", "write_frames=false"]
+                    for s in sets:
+                        cmd += ["--set", s]
+                    if not (args.reuse and (folder / "summary.json").exists()):
+                        print(" ".join(cmd), file=sys.stderr, flush=True)
+                        subprocess.run(cmd, check=True)
+                    s = json.loads((folder / "summary.json").read_text())
+                    done[key] = {"scene": scene, "dx": dx, "sets": sets, "folder": str(folder),
+                                 "steps": s["steps"], "solves": s["steps"] * s["pressure_solves"]["mean"],
+                                 "t_final": s.get("t_final"),
+                                 "linear_solver": s["linear_solver"],
+                                 "iterations": s["linear_iterations"],
+                                 "solve_s": s["stage_seconds"].get("solve", 0.0),
+                                 "wall_s": s["wall_time_s"], "unknowns_max": s.get("active_cells_max"),
+                                 "command": " ".join(cmd)}
+                rows.append(done[key])
+            results[(name, variant + suffix)] = rows
 
-    lines = ["| series | dx (m) | steps | mean its | max its | ms per solve | growth of mean per halving |",
-             "|---|---|---|---|---|---|---|"]
-    for name, rows in results.items():
+    lines = ["| series | preconditioner | dx (m) | steps | mean its | max its | ms per solve | growth of mean per halving |",
+             "|---|---|---|---|---|---|---|---|"]
+    for (name, variant), rows in results.items():
         prev = None
         for r in rows:
             mean = r["iterations"]["mean"]
             growth = "-"
             if prev and prev["iterations"]["mean"] > 0 and mean > 0:
                 growth = f"{(mean / prev['iterations']['mean']) ** (1 / math.log2(prev['dx'] / r['dx'])):.2f}"
-            lines.append(f"| {name} | {r['dx']:g} | {r['steps']} | {mean:.1f} | {r['iterations']['max']} "
+            lines.append(f"| {name} | {variant} | {r['dx']:g} | {r['steps']} | {mean:.1f} | {r['iterations']['max']} "
                          f"| {1e3 * r['solve_s'] / max(r['solves'], 1):.2f} | {growth} |")
             prev = r
     text = "\n".join(lines) + "\n"
     (out / "insolver.md").write_text(text)
-    (out / "insolver.json").write_text(json.dumps(results, indent=1))
+    (out / "insolver.json").write_text(json.dumps({f"{n} {v}": rows for (n, v), rows in results.items()}, indent=1))
     print(text)
 
 

@@ -21,17 +21,25 @@ using Sparse = Eigen::SparseMatrix<Real>;
 
 class PcgSolver final : public LinearSolver {
  public:
-  explicit PcgSolver(const LinearSolverOptions& options) : options_(options) {}
+  // dim: BoomerAMG's parameters and its checkerboard flip by dimension.
+  PcgSolver(const LinearSolverOptions& options, int dim)
+      : options_(options),
+        flip_(options.checkerboard_flip == CheckerboardFlip::on || (options.checkerboard_flip == CheckerboardFlip::automatic && dim == 3)) {
+    if (options_.preconditioner == Preconditioner::boomeramg) amg_ = std::make_unique<BoomerAmgPreconditioner>(options_.amg, dim);
+  }
   bool solves_quasi_definite() const override { return false; }
   std::string name() const override {
     switch (options_.preconditioner) {
       case Preconditioner::ic0: return "pcg-ic0";
       case Preconditioner::ichol: return "pcg-ichol";
+      case Preconditioner::boomeramg: return flip_ ? "pcg-boomeramg-flip" : "pcg-boomeramg";
       case Preconditioner::jacobi: break;
     }
     return "pcg-jacobi";
   }
   LinearSolverKind kind() const override { return LinearSolverKind::pcg; }
+  bool wants_checkerboard_signs() const override { return amg_ && flip_; }
+  void suggest_checkerboard_signs(std::vector<signed char> signs) override { signs_ = std::move(signs); }
 
   LinearSolveStats solve(const Sparse& A, const Eigen::VectorXd& b, Eigen::VectorXd& x) override {
     LinearSolveStats stats;
@@ -54,6 +62,11 @@ class PcgSolver final : public LinearSolver {
           ichol.compute(A);
           if (ichol.info() != Eigen::Success) throw NumericalFailure("incomplete Cholesky factorisation failed");
           break;
+        case Preconditioner::boomeramg:
+          // Signs that do not fit this system (none handed over, or for other unknowns):
+          // the hierarchy of A itself.
+          amg_->compute(A, signs_.size() == std::size_t(n) ? signs_ : std::vector<signed char>{});
+          break;
       }
     }
     // A is symmetric: A^T p is the row-major product, which Eigen runs on the OpenMP
@@ -65,6 +78,7 @@ class PcgSolver final : public LinearSolver {
             case Preconditioner::jacobi: z = inverse_diagonal.cwiseProduct(r); break;
             case Preconditioner::ic0: ic0.solve(r, z); break;
             case Preconditioner::ichol: z = ichol.solve(r); break;
+            case Preconditioner::boomeramg: amg_->apply(r, z); break;
           }
         },
         b, x, options_.tolerance, options_.max_iterations);
@@ -77,6 +91,9 @@ class PcgSolver final : public LinearSolver {
 
  private:
   LinearSolverOptions options_;
+  bool flip_ = false;
+  std::unique_ptr<BoomerAmgPreconditioner> amg_;  // made with the solver (MPI and hypre start with the first)
+  std::vector<signed char> signs_;
 };
 
 // The sparsity pattern of the last matrix a direct solver analysed: its symbolic analysis
@@ -365,7 +382,7 @@ std::unique_ptr<LinearSolver> make_linear_solver(const LinearSolverOptions& opti
     case LinearSolverKind::ldlt: return std::make_unique<UpdatableLdlSolver>(options.simplicial);
     case LinearSolverKind::pcg: break;
   }
-  return std::make_unique<PcgSolver>(options);
+  return std::make_unique<PcgSolver>(options, dim);
 }
 
 }  // namespace iqmpm

@@ -1,5 +1,6 @@
 // Linear solvers for the symmetric positive (semi-)definite pressure system, behind one
-// interface: preconditioned CG (incomplete Cholesky or Jacobi), and CHOLMOD's LDL^T and LL^T.
+// interface: preconditioned CG (incomplete Cholesky, Jacobi or hypre's BoomerAMG), and
+// CHOLMOD's LDL^T and LL^T.
 #pragma once
 
 #include <Eigen/SparseCore>
@@ -8,11 +9,15 @@
 #include <vector>
 
 #include "core/types.h"
+#include "linear_solver/boomeramg.h"
 
 namespace iqmpm {
 
 enum class LinearSolverMethod { automatic, pcg, cholmod, ldlt };
-enum class Preconditioner { ic0, ichol, jacobi };
+enum class Preconditioner { ic0, ichol, jacobi, boomeramg };
+// BoomerAMG on S A S with S the checkerboard signs of the unknowns' dual cells
+// (linear_solver/boomeramg.h): automatic = on in 3-D, off in 2-D (docs/method.md#linear-solver).
+enum class CheckerboardFlip { automatic, on, off };
 // The fill-reducing order of a direct solve: the grid's nested dissection, fixed for the
 // run (grid/nested_dissection.h), or AMD on each new pattern.
 enum class DirectOrdering { grid, amd };
@@ -30,6 +35,9 @@ struct LinearSolverOptions {
   // interface's rounds) and quasi-definite systems (the solid's stiffness) need; otherwise
   // CHOLMOD may choose a supernodal LL^T.
   bool simplicial = false;
+  // pcg with boomeramg: the flip and the hierarchy's parameters.
+  CheckerboardFlip checkerboard_flip = CheckerboardFlip::automatic;
+  BoomerAmgParameters amg{};
 };
 
 struct LinearSolveStats {
@@ -68,6 +76,12 @@ class LinearSolver {
   // eliminated k-th (the caller's, from the grid; empty: the solver's own, AMD). Direct
   // solvers use it; others ignore it.
   virtual void suggest_order(std::vector<int> /*order*/) {}
+  // Whether the solver reads the checkerboard signs of the unknowns: PCG with BoomerAMG on
+  // S A S (solver.amg_checkerboard_flip). The caller then hands them over before each
+  // solve: signs[i] = (-1)^(sum of the multi-index of unknown i's dual cell), +1 for an
+  // unknown without one. Signs of another length than the next system's are not used.
+  virtual bool wants_checkerboard_signs() const { return false; }
+  virtual void suggest_checkerboard_signs(std::vector<signed char> /*signs*/) {}
 };
 
 // Chooses the solver for a system of `unknowns` rows according to the options. "auto" is

@@ -11,6 +11,7 @@
 #include "core/errors.h"
 #include "core/log.h"
 #include "scene/geometry.h"
+#include "scene/solver_keys.h"
 
 namespace iqmpm {
 namespace {
@@ -321,40 +322,7 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
   }
   {
     JsonReader solver = root.object("solver", "linear solver of the pressure system");
-    auto& o = scene.solver;
-    o.method = solver.option<LinearSolverMethod>(
-        "method", o.method,
-        {{"auto", LinearSolverMethod::automatic}, {"pcg", LinearSolverMethod::pcg}, {"cholmod", LinearSolverMethod::cholmod}, {"ldlt", LinearSolverMethod::ldlt}},
-        "auto: ldlt in 2-D up to direct_max_unknowns, pcg otherwise; pcg: conjugate gradients; cholmod: CHOLMOD LL^T; "
-        "ldlt: CHOLMOD LDL^T (also quasi-definite systems)");
-    o.preconditioner = solver.option<Preconditioner>(
-        "preconditioner", o.preconditioner, {{"ic0", Preconditioner::ic0}, {"ichol", Preconditioner::ichol}, {"jacobi", Preconditioner::jacobi}},
-        "PCG preconditioner: ic0 = incomplete Cholesky without fill in grid order; ichol = Eigen's threshold-fill "
-        "incomplete Cholesky in AMD order; jacobi");
-    o.tolerance = solver.number("tolerance", o.tolerance, 0, 1, "PCG relative residual tolerance", true);
-    o.max_iterations = solver.integer("max_iterations", o.max_iterations, 1, 1000000, "PCG iteration cap; reaching it stops the run");
-    o.direct_max_unknowns = solver.integer("direct_max_unknowns", o.direct_max_unknowns, 0, std::numeric_limits<int>::max(), "auto: largest 2-D system solved directly");
-    o.ordering = solver.option<DirectOrdering>(
-        "ordering", o.ordering, {{"grid", DirectOrdering::grid}, {"amd", DirectOrdering::amd}},
-        "ldlt's fill-reducing order: grid = nested dissection of the grid, fixed for the run (no ordering per step); "
-        "amd = AMD on each step's pattern");
-    auto& w = scene.warm_start;
-    w.kind = solver.option<WarmStartKind>(
-        "warm_start", w.kind,
-        {{"none", WarmStartKind::none}, {"previous", WarmStartKind::previous}, {"extrapolate", WarmStartKind::extrapolate},
-         {"projection", WarmStartKind::projection}, {"learned", WarmStartKind::learned}},
-        "PCG's first guess: none = zero; previous = the last step's solution by grid cell; extrapolate = linear in time "
-        "through the last two; projection = the A-norm-best combination of the last warm_start_history solutions "
-        "(Fischer); learned = MPMNet's prediction (solver.model) combined with them the same way (docs/method.md#warm-start)");
-    w.history = solver.integer("warm_start_history", w.history, 0, 32,
-                               "projection, learned: solutions combined (k); learned with 0 takes the network's prediction as it is");
-    w.model = solver.text("model", w.model.empty() ? std::optional<std::string>("") : w.model,
-                          "learned: the MPMNet TorchScript model file (mpmnet/README.md); a relative path is taken from the "
-                          "working directory");
-    if (!docs && w.kind == WarmStartKind::projection && w.history < 1)
-      throw InputError("scene key 'solver.warm_start_history' = 0: projection needs at least 1 solution; accepted: 1 to 32");
-    if (!docs && w.kind == WarmStartKind::learned && w.model.empty())
-      throw InputError("scene key 'solver.model': required with solver.warm_start = \"learned\" (an MPMNet TorchScript file, mpmnet/README.md)");
+    read_solver_keys(solver, scene.solver, scene.warm_start, docs);
     solver.finish();
   }
   {

@@ -209,6 +209,9 @@ void Simulation<dim>::solve_pressure_system(const Eigen::VectorXd& rhs) {
     pressure_solver_->suggest_order(std::move(grid_order_));
     grid_order_.clear();
   }
+  // BoomerAMG on S A S (solver.amg_checkerboard_flip): the signs of this system's unknowns,
+  // O(unknowns), against a hierarchy set up on every solve anyway.
+  if (pressure_solver_->wants_checkerboard_signs()) pressure_solver_->suggest_checkerboard_signs(checkerboard_signs_of_unknowns());
   last_.linear = pressure_solver_->solve(system_.matrix(), rhs, lambda_);
   last_.modified_solves += last_.linear.modified_rows > 0;
   if (!last_.linear.converged || !lambda_.allFinite())
@@ -278,6 +281,19 @@ std::vector<int> Simulation<dim>::grid_order_of_unknowns() const {
   std::vector<int> order(cell.size());
   for (std::size_t k = 0; k < keyed.size(); ++k) order[k] = keyed[k].second;
   return order;
+}
+
+// (-1)^(i+j[+k]) of each unknown's dual cell (docs/method.md#linear-solver: the Q1-P0
+// checkerboard becomes smooth in S A S). An unknown of a cell (p_g, p_f, a wall face's y, the
+// interface's h) takes its cell's sign; one without a cell (a solid velocity row) +1.
+template <int dim>
+std::vector<signed char> Simulation<dim>::checkerboard_signs_of_unknowns() const {
+  const std::vector<int> cell = dual_cell_of_unknowns();
+  const GridLayout<dim> cells = grid_.dual_cells();
+  std::vector<signed char> signs(cell.size(), 1);
+  for (std::size_t u = 0; u < cell.size(); ++u)
+    if (cell[u] >= 0 && cells.multi_index(cell[u]).sum() % 2 != 0) signs[u] = -1;
+  return signs;
 }
 
 template <int dim>

@@ -156,6 +156,7 @@ class Simulation {
   UnknownLocations locate_unknowns() const;
   void measure_wall_forces(const Eigen::VectorXd& constraint_force);
   std::vector<int> grid_order_of_unknowns() const;
+  std::vector<signed char> checkerboard_signs_of_unknowns() const;
   void keep_particles_in_domain(Particles<dim>& particles, const char* kind);
 
   // Fixed for the run.

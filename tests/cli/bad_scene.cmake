@@ -17,6 +17,11 @@ execute_process(COMMAND ${IQMPM} check ${SOURCE}/benchmarks/dam_break/dam_break.
 if(NOT code EQUAL 2 OR NOT err MATCHES "solver.method.*auto, pcg, cholmod, ldlt")
   message(FATAL_ERROR "bad --set value: exit ${code}, stderr: ${err}")
 endif()
+execute_process(COMMAND ${IQMPM} check ${SOURCE}/benchmarks/dam_break/dam_break.json --set solver.amg_checkerboard_flip=yes
+                RESULT_VARIABLE code ERROR_VARIABLE err)
+if(NOT code EQUAL 2 OR NOT err MATCHES "solver.amg_checkerboard_flip.*auto, on, off")
+  message(FATAL_ERROR "bad BoomerAMG option: exit ${code}, stderr: ${err}")
+endif()
 # Command-line errors are bad input too (exit 2 with the usage), and so is a number
 # beyond double range or a run shorter than its smallest step.
 foreach(args "run;${WORK}/no_such_scene.json" "run;${WORK}" "run;${SOURCE}/benchmarks/dam_break/dam_break.json;--threads;-1"

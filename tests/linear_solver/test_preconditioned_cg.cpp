@@ -61,7 +61,7 @@ TEST(PressureSolversTest, EachMethodMatchesADenseSolve) {
   const Eigen::VectorXd b = Eigen::VectorXd::NullaryExpr(A.rows(), [&] { return uniform(rng); });
   const Eigen::VectorXd dense = Eigen::MatrixXd(A).llt().solve(b);
   for (const auto method : {LinearSolverMethod::pcg, LinearSolverMethod::ldlt, LinearSolverMethod::cholmod})
-    for (const auto preconditioner : {Preconditioner::ic0, Preconditioner::ichol, Preconditioner::jacobi}) {
+    for (const auto preconditioner : {Preconditioner::ic0, Preconditioner::ichol, Preconditioner::jacobi, Preconditioner::boomeramg}) {
       if (method != LinearSolverMethod::pcg && preconditioner != Preconditioner::ic0) continue;
       LinearSolverOptions options;
       options.method = method;
