@@ -42,42 +42,48 @@ class PcgSolver final : public LinearSolver {
   void suggest_checkerboard_signs(std::vector<signed char> signs) override { signs_ = std::move(signs); }
 
   LinearSolveStats solve(const Sparse& A, const Eigen::VectorXd& b, Eigen::VectorXd& x) override {
+    prepared_ = b.norm() > 0;
+    if (prepared_) prepare(A);
+    return iterate(A, b, x);
+  }
+  // The preconditioner of the last solve serves the same matrix again.
+  LinearSolveStats solve_again(const Sparse& A, const Eigen::VectorXd& b, Eigen::VectorXd& x) override {
+    return prepared_ ? iterate(A, b, x) : solve(A, b, x);
+  }
+
+ private:
+  void prepare(const Sparse& A) {
+    switch (options_.preconditioner) {
+      case Preconditioner::jacobi: inverse_diagonal_ = A.diagonal().cwiseInverse(); break;
+      case Preconditioner::ic0:
+        if (!ic0_.compute(A)) throw NumericalFailure("IC(0) factorisation failed even with a diagonal shift of 1 x diag(A)");
+        break;
+      case Preconditioner::ichol:
+        ichol_.setInitialShift(1e-3);
+        ichol_.compute(A);
+        if (ichol_.info() != Eigen::Success) throw NumericalFailure("incomplete Cholesky factorisation failed");
+        break;
+      case Preconditioner::boomeramg:
+        // Signs that do not fit this system (none handed over, or for other unknowns):
+        // the hierarchy of A itself.
+        amg_->compute(A, signs_.size() == std::size_t(A.rows()) ? signs_ : std::vector<signed char>{});
+        break;
+    }
+  }
+
+  LinearSolveStats iterate(const Sparse& A, const Eigen::VectorXd& b, Eigen::VectorXd& x) {
     LinearSolveStats stats;
     stats.method = name();
-    const int n = int(b.size());
-    if (x.size() != n) x = Eigen::VectorXd::Zero(n);
-    Eigen::VectorXd inverse_diagonal;
-    IncompleteCholesky0 ic0;
-    // Eigen's incomplete Cholesky with threshold fill (Lin & More), AMD ordering and an
-    // automatic diagonal shift on breakdown.
-    Eigen::IncompleteCholesky<Real, Eigen::Lower, Eigen::AMDOrdering<int>> ichol;
-    if (b.norm() > 0) {
-      switch (options_.preconditioner) {
-        case Preconditioner::jacobi: inverse_diagonal = A.diagonal().cwiseInverse(); break;
-        case Preconditioner::ic0:
-          if (!ic0.compute(A)) throw NumericalFailure("IC(0) factorisation failed even with a diagonal shift of 1 x diag(A)");
-          break;
-        case Preconditioner::ichol:
-          ichol.setInitialShift(1e-3);
-          ichol.compute(A);
-          if (ichol.info() != Eigen::Success) throw NumericalFailure("incomplete Cholesky factorisation failed");
-          break;
-        case Preconditioner::boomeramg:
-          // Signs that do not fit this system (none handed over, or for other unknowns):
-          // the hierarchy of A itself.
-          amg_->compute(A, signs_.size() == std::size_t(n) ? signs_ : std::vector<signed char>{});
-          break;
-      }
-    }
+    if (x.size() != b.size()) x = Eigen::VectorXd::Zero(b.size());
     // A is symmetric: A^T p is the row-major product, which Eigen runs on the OpenMP
     // threads (dynamic schedule).
     const PcgResult result = preconditioned_cg(
         [&](const Eigen::VectorXd& p) -> Eigen::VectorXd { return A.transpose() * p; },
         [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) {
           switch (options_.preconditioner) {
-            case Preconditioner::jacobi: z = inverse_diagonal.cwiseProduct(r); break;
-            case Preconditioner::ic0: ic0.solve(r, z); break;
-            case Preconditioner::ichol: z = ichol.solve(r); break;
+            case Preconditioner::jacobi: z = inverse_diagonal_.cwiseProduct(r); break;
+            case Preconditioner::ic0: ic0_.solve(r, z); break;
+            case Preconditioner::ichol: z = ichol_.solve(r); break;
             case Preconditioner::boomeramg: amg_->apply(r, z); break;
           }
         },
@@ -89,9 +95,15 @@ class PcgSolver final : public LinearSolver {
     return stats;
   }
 
- private:
   LinearSolverOptions options_;
   bool flip_ = false;
+  // The preconditioner of the last solve (prepared_: computed; a zero right-hand side needs none).
+  bool prepared_ = false;
+  Eigen::VectorXd inverse_diagonal_;
+  IncompleteCholesky0 ic0_;
+  // Eigen's incomplete Cholesky with threshold fill (Lin & More), AMD ordering and an
+  // automatic diagonal shift on breakdown.
+  Eigen::IncompleteCholesky<Real, Eigen::Lower, Eigen::AMDOrdering<int>> ichol_;
   std::unique_ptr<BoomerAmgPreconditioner> amg_;  // made with the solver (MPI and hypre start with the first)
   std::vector<signed char> signs_;
 };

@@ -57,7 +57,7 @@ class LinearSolver {
   virtual LinearSolveStats solve(const Eigen::SparseMatrix<Real>& A, const Eigen::VectorXd& b,
                                  Eigen::VectorXd& x) = 0;
   // Another right-hand side for the matrix of the last solve (same values): a direct
-  // solver reuses its factor (two triangular solves); the others solve afresh.
+  // solver reuses its factor (two triangular solves), PCG its preconditioner.
   virtual LinearSolveStats solve_again(const Eigen::SparseMatrix<Real>& A, const Eigen::VectorXd& b, Eigen::VectorXd& x) {
     return solve(A, b, x);
   }
