@@ -37,6 +37,7 @@ struct FluidOperators {
   std::vector<int> dof_of_corner;  // -1 where inactive
   std::vector<int> corner_of_dof;
   Eigen::VectorXd mass;            // M^f per dof (not per component), from the fluid quadrature
+  std::vector<char> exact_mass;    // per dof: M^f only from the exact rule (every cell of the corner interior, none at a solid)
   // Pressure unknowns: dual cells holding fluid particles.
   std::vector<int> pressure_of_cell;  // -1 where no fluid
   std::vector<int> cell_of_pressure;
@@ -129,6 +130,7 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
   // particles elsewhere. Using one quadrature for both keeps fluid at rest in hydrostatic
   // balance even when particles are unevenly spread. Corners with mass are the unknowns.
   std::vector<Real> corner_mass(corners.size(), 0);
+  std::vector<char> corner_inexact(corners.size(), 0);  // M^f has a part that is not the exact share
   const Real cell_volume = grid.cell_volume();
   // Fluid volume held by a cell's particles, capped at the cell volume (surface cells
   // with the one-point rule at the centre, option fluid.surface_quadrature = "centre").
@@ -152,9 +154,15 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
     const IVec<dim> cell = cells.multi_index(cell_index);
     if (ops.interior[row] || surface_cells_at_centre) {
       const Real share = ops.interior[row] ? corner_share : cell_fluid_mass(row) / Real(1 << dim);
-      for_each_offset<dim, 2>([&](const IVec<dim>& offset) { corner_mass[corners.index(cell + offset)] += share; });
+      // A cell that holds borrowed volume lies at a solid: its fluid fills only a part of it.
+      const bool exact = ops.interior[row] && !(extra && extra_bins->count(cell_index) > 0);
+      for_each_offset<dim, 2>([&](const IVec<dim>& offset) {
+        corner_mass[corners.index(cell + offset)] += share;
+        if (!exact) corner_inexact[corners.index(cell + offset)] = 1;
+      });
       continue;
     }
+    for_each_offset<dim, 2>([&](const IVec<dim>& offset) { corner_inexact[corners.index(cell + offset)] = 1; });
     for (int p = bins.begin(cell_index); p < bins.end(cell_index); ++p) {
       const auto stencil = linear_stencil<dim>(grid.to_cells(particles.position[p]), grid.dx);
       const Real quadrature_mass = particles.mass[p];
@@ -189,7 +197,11 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
       ops.corner_of_dof.push_back(k);
     }
   ops.mass.resize(ops.velocity_dofs());
-  for (int d = 0; d < ops.velocity_dofs(); ++d) ops.mass[d] = corner_mass[ops.corner_of_dof[d]];
+  ops.exact_mass.resize(ops.velocity_dofs());
+  for (int d = 0; d < ops.velocity_dofs(); ++d) {
+    ops.mass[d] = corner_mass[ops.corner_of_dof[d]];
+    ops.exact_mass[d] = !corner_inexact[ops.corner_of_dof[d]];
+  }
   ops.on_wall.assign(ops.velocity_dofs(), 0);
   for (int d = 0; d < ops.velocity_dofs(); ++d) {
     const IVec<dim> corner = corners.multi_index(ops.corner_of_dof[d]);

@@ -261,6 +261,13 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
         {{"auto", WallConstraint::automatic}, {"corners", WallConstraint::corners}, {"faces", WallConstraint::faces}},
         "free-slip walls: corners holds the normal velocity of each fluid corner on a wall; faces adds one multiplier "
         "row per wall face (badly conditioned); auto: corners in 3-D, faces in 2-D (docs/method.md#walls-on-corners)");
+    scene.fluid.inertia = fluid.option<FluidInertia>(
+        "inertia", scene.fluid.inertia,
+        {{"auto", FluidInertia::automatic}, {"quadrature", FluidInertia::quadrature}, {"transfer", FluidInertia::transfer}},
+        "mass of the fluid corners in the projection: quadrature, M^f of the pressure quadrature; transfer, the mass "
+        "the particles carry to a corner (P2G) where it is larger than M^f and the corner's cells are full of water, "
+        "with gravity still weighted by M^f so that water at rest stays in hydrostatic balance; auto: transfer without "
+        "solids, quadrature with them (docs/method.md#fluid-inertia)");
     scene.fluid.initial_velocity = fluid.vector("initial_velocity", std::vector<Real>(dim, 0), dim, "initial velocity of the fluid (m/s)");
     for (auto& shape : fluid.objects("shapes", "regions filled with fluid; a particle is seeded where any shape contains it"))
       scene.fluid.shapes.push_back(read_shape(shape, dim));

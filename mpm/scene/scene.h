@@ -16,6 +16,7 @@ namespace iqmpm {
 enum class ShapeType { box, sphere, polygon };
 
 enum class SurfaceQuadrature { automatic, particles, centre };
+enum class FluidInertia { automatic, quadrature, transfer };
 // How a free-slip wall holds the fluid: its normal velocity component at each corner on
 // the wall, or one multiplier row per wall face (docs/method.md#walls-on-corners).
 enum class WallConstraint { automatic, corners, faces };
@@ -63,6 +64,8 @@ struct FluidSpec {
   // particles without (what the validated scenes use; docs/method.md#fluid-quadrature).
   SurfaceQuadrature surface_quadrature = SurfaceQuadrature::automatic;
   WallConstraint wall_constraint = WallConstraint::automatic;
+  // The fluid corners' mass in the projection (docs/method.md#fluid-inertia).
+  FluidInertia inertia = FluidInertia::automatic;
 };
 
 // One elastic body (method.md §1): hyperelastic model, density, the ghost matrix's

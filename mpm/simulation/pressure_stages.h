@@ -76,13 +76,24 @@ void Simulation<dim>::assemble_pressure_system(Real dt) {
   for (int d = 0; d < nf; ++d) {
     const int corner = ops_.corner_of_dof[d];
     // v^n from the APIC transfer (momentum / transferred mass); M^f from the quadrature.
-    const Vec<dim> v = corner_momentum_.momentum[corner] / corner_momentum_.mass[corner];
+    const Real transferred = corner_momentum_.mass[corner];
+    Vec<dim> v = corner_momentum_.momentum[corner] / transferred;
+    Real mass = ops_.mass[d];
+    if (options_.inertia_from_transfer && ops_.exact_mass[d] && transferred > mass) {
+      // Crowded particles (more mass at the corner than the water that fills its cells):
+      // the corner's inertia is the mass they carry, so G2P hands them the impulse the
+      // projection computed rather than transferred / M^f times it, which fed the
+      // splashes. Gravity stays dt M^f g, which hydrostatic pressure balances exactly
+      // however the particles lie (docs/method.md#fluid-inertia).
+      v += dt * (mass / transferred - 1) * gravity_;
+      mass = transferred;
+    }
     for (int a = 0; a < dim; ++a) {
       const int column = fluid_column_offset_ + d * dim + a;
       const std::uint8_t sides = options_.walls_on_corners ? (ops_.on_wall[d] >> (2 * a)) & 3u : 0;
-      inverse_mass[column] = sides ? 0 : 1 / ops_.mass[d];
+      inverse_mass[column] = sides ? 0 : 1 / mass;
       velocity_star_[column] = sides ? 0 : v[a];
-      if (sides) wall_holds_.push_back({column, a, sides & 1u ? 0 : 1, ops_.mass[d] * v[a] / dt});
+      if (sides) wall_holds_.push_back({column, a, sides & 1u ? 0 : 1, mass * v[a] / dt});
     }
   }
   system_.reset(inverse_mass);

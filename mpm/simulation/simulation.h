@@ -49,6 +49,7 @@ struct StepOptions {
   Real fluid_density = 1000;
   bool surface_cells_at_centre = true;       // fluid.surface_quadrature
   bool walls_on_corners = true;              // fluid.wall_constraint
+  bool inertia_from_transfer = false;        // fluid.inertia = transfer
   Real position_correction = 0;              // experimental.position_correction; 0 = off
   bool unilateral = false;                   // coupling.interface
   int max_contact_rounds = 8;                // experimental.max_contact_rounds

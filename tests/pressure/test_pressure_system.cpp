@@ -2,7 +2,8 @@
 // matrix is symmetric positive semi-definite; after the solve the recovered velocity is
 // discretely divergence-free (G^fT v = 0) and satisfies the wall constraint (B v = b to the
 // solver tolerance with wall faces, a zero normal velocity at every wall corner with walls
-// on the corners); the projection does not add kinetic energy; PCG and CHOLMOD agree.
+// on the corners); the projection does not add kinetic energy; with the transferred mass as
+// inertia the particles' momentum changes by the walls' impulse; PCG and CHOLMOD agree.
 // The coupled system (interface and ghost-matrix blocks, and the bordered system of the
 // solid's stiffness) satisfies its constraints after the solve.
 #include <Eigen/Dense>
@@ -12,6 +13,7 @@
 #include "diagnostics/measurements.h"
 #include "linear_solver/linear_solver.h"
 #include "pressure/pressure_system.h"
+#include "simulation/set_up.h"
 #include "simulation/simulation.h"
 #include "support/run_helpers.h"
 #include "support/scenes.h"
@@ -98,6 +100,68 @@ TYPED_TEST(PressureSystemTest, ProjectionIsDivergenceFreeAndRespectsWalls) {
     }
     EXPECT_LE(this->kinetic_energy(sim, v_next), this->kinetic_energy(sim, v_star));
   }
+}
+
+// fluid.inertia = transfer (docs/method.md#fluid-inertia): in a tank full of crowded water
+// (particles heavier than the water their cells hold, as where the dam break's run-up hits
+// a corner) every corner's inertia is the mass its particles carried there, so their
+// momentum changes by exactly the impulse of the walls: P2G and G2P conserve momentum and
+// the pressure's interior forces cancel. With the quadrature's mass M^f each corner passes
+// its particles transferred / M^f times its impulse, and the balance fails: what this test
+// must be able to see.
+TYPED_TEST(PressureSystemTest, TransferredInertiaBalancesTheParticlesMomentumWithTheWalls) {
+  constexpr int dim = TypeParam::value;
+  const Real dt = 1e-3;
+  for (const std::string walls : {"faces", "corners"})
+    for (const std::string inertia : {"transfer", "auto", "quadrature"}) {  // auto: transfer without solids
+      SCOPED_TRACE(walls + ", " + inertia);
+      const std::vector<Real> full(dim, 1.0);
+      Json doc = testing::fluid_box_scene(dim, dim == 2 ? 0.05 : 0.125, full, full);
+      doc["gravity"] = std::vector<Real>(dim, 0.0);
+      doc["jitter"] = 0.5;
+      doc["solver"] = {{"method", "cholmod"}};
+      doc["fluid"]["inertia"] = inertia;
+      doc["fluid"]["wall_constraint"] = walls;
+      doc["walls"] = {{"y+", "none"}};  // an open top: the pressure has no constant null mode
+      Simulation<dim> sim(read_scene(doc));
+      // Particles twice as heavy as the water they stand for (the dam break's crowded
+      // corners hold 7-10 particles where 4 were seeded), bunched towards x = 0.5 (0.83 to
+      // 1.25 times the seeded density), moving towards the x+ wall and the open top.
+      Particles<dim>& fluid = sim.fluid();
+      Vec<dim> before = Vec<dim>::Zero();
+      for (std::size_t p = 0; p < fluid.size(); ++p) {
+        Real& x = fluid.position[p][0];
+        x += 0.1 * std::sin(2 * M_PI * x) / M_PI;
+        fluid.mass[p] *= 2;
+        fluid.velocity[p].setZero();
+        fluid.velocity[p][0] = 1;
+        fluid.velocity[p][1] = 0.5;
+        before += fluid.mass[p] * fluid.velocity[p];
+      }
+      sim.step(dt);
+      Vec<dim> after = Vec<dim>::Zero(), walls_impulse = Vec<dim>::Zero();
+      for (std::size_t p = 0; p < fluid.size(); ++p) after += fluid.mass[p] * fluid.velocity[p];
+      for (int a = 0; a < dim; ++a) walls_impulse[a] = -dt * (sim.wall_force(a, 0) + sim.wall_force(a, 1));
+      const Real mismatch = (after - before - walls_impulse).norm() / walls_impulse.norm();
+      ASSERT_GT(walls_impulse.norm(), 0.1 * before.norm());  // the walls really stopped a part of the flow
+      if (inertia != "quadrature") {
+        for (char exact : sim.fluid_operators().exact_mass) ASSERT_TRUE(exact);  // every corner took it
+        EXPECT_LT(mismatch, 1e-9);
+      } else {
+        EXPECT_GT(mismatch, 1e-3);
+      }
+    }
+}
+
+// fluid.inertia = auto resolves to transfer in a scene without solids and to quadrature
+// in one with them (docs/method.md#fluid-inertia).
+TEST(FluidInertiaTest, AutoTakesTheTransferredMassOnlyWithoutSolids) {
+  EXPECT_TRUE(resolve_step_options(load_scene(testing::scene_path("dam_break/dam_break.json"), {})).inertia_from_transfer);
+  EXPECT_FALSE(resolve_step_options(load_scene(testing::scene_path("floating_block/floating_block.json"), {})).inertia_from_transfer);
+  EXPECT_TRUE(resolve_step_options(load_scene(testing::scene_path("floating_block/floating_block.json"), {"fluid.inertia=transfer"}))
+                  .inertia_from_transfer);
+  EXPECT_FALSE(resolve_step_options(load_scene(testing::scene_path("dam_break/dam_break.json"), {"fluid.inertia=quadrature"}))
+                   .inertia_from_transfer);
 }
 
 TYPED_TEST(PressureSystemTest, PcgAndCholmodAgree) {
