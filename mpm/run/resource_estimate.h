@@ -110,15 +110,18 @@ inline ResourceEstimate estimate_resources(const SceneSpec& scene) {
   // per-corner and (with solids) per-node arrays of a step; each particle with what a step
   // and a frame copy of it take (a solid one with its Newton and interface data); the
   // pressure system per non-zero (its matrix, G, the operators' triplets, IC(0)); the
-  // factor (value and row index); the metrics and steps.csv rows kept to the run's end.
+  // factor (value and row index); BoomerAMG's hierarchy, 15 bytes a non-zero of A (3-D
+  // tank at dx 1/64 and 1/80, PCG: +60 and +125 MiB peak over IC(0), 14.2 and 15.2 bytes
+  // an estimated non-zero); the metrics and steps.csv rows kept to the run's end.
   const bool solids = !scene.solids.empty();
+  const bool amg_hierarchy = !direct && scene.solver.preconditioner == Preconditioner::boomeramg;
   // The warm start keeps solutions as dense grid fields, 18 bytes a cell each (fitted
   // with `previous`, one kept); the kinds that keep more add theirs.
   const WarmStartKind kind = scene.warm_start.kind;
   const double kept = kind == WarmStartKind::none ? 0 : kind == WarmStartKind::previous ? 1 : kind == WarmStartKind::extrapolate ? 2
                                                                                                  : std::max(scene.warm_start.history, 2);
   e.memory_bytes = 25e6 + (195 + 18 * (kept - 1)) * e.cells + (solids ? 100 : 0) * e.nodes + (dim == 2 ? 150 : 215) * e.fluid_particles +
-                   (dim == 2 ? 5000 : 10000) * e.solid_particles + 80 * e.matrix_nonzeros + 12 * e.factor_nonzeros +
+                   (dim == 2 ? 5000 : 10000) * e.solid_particles + (amg_hierarchy ? 95 : 80) * e.matrix_nonzeros + 12 * e.factor_nonzeros +
                    e.steps * (8.0 * scene.probes.size() + 160);
 
   // Output (bytes): per frame, 64 bytes a particle (connectivity, position, velocity,

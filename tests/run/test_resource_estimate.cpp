@@ -32,6 +32,18 @@ TEST(ResourceEstimateTest, FramesFollowEndTimeAndFrameRate) {
   EXPECT_DOUBLE_EQ(estimate_resources(read_scene(doc)).frames, 0);
 }
 
+// BoomerAMG's hierarchy is counted where PCG uses it, and only there: with a direct
+// solve the preconditioner key changes nothing.
+TEST(ResourceEstimateTest, BoomerAmgHierarchyIsCountedOnlyWithPcg) {
+  auto memory = [](const std::string& method, const std::string& preconditioner) {
+    return estimate_resources(read_scene(testing::benchmark_document(
+                                  "hydrostatic/hydrostatic_3d.json", {"solver.method=" + method, "solver.preconditioner=" + preconditioner})))
+        .memory_bytes;
+  };
+  EXPECT_GT(memory("pcg", "boomeramg"), memory("pcg", "ic0"));
+  EXPECT_DOUBLE_EQ(memory("cholmod", "boomeramg"), memory("cholmod", "ic0"));
+}
+
 TEST(ResourceEstimateTest, PastALimitTheSceneIsRefusedNamingKeysAndOption) {
   const SceneSpec scene = read_scene(testing::benchmark_document("dam_break/dam_break.json", {"dx=1e-4"}));
   const ResourceEstimate e = estimate_resources(scene);
