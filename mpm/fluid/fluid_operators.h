@@ -152,17 +152,14 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
   for (int row = 0; row < np; ++row) {
     const int cell_index = ops.cell_of_pressure[row];
     const IVec<dim> cell = cells.multi_index(cell_index);
+    // A cell that holds borrowed volume lies at a solid: its fluid fills only a part of it.
+    const bool exact = ops.interior[row] && !(extra && extra_bins->count(cell_index) > 0);
+    if (!exact) for_each_offset<dim, 2>([&](const IVec<dim>& offset) { corner_inexact[corners.index(cell + offset)] = 1; });
     if (ops.interior[row] || surface_cells_at_centre) {
       const Real share = ops.interior[row] ? corner_share : cell_fluid_mass(row) / Real(1 << dim);
-      // A cell that holds borrowed volume lies at a solid: its fluid fills only a part of it.
-      const bool exact = ops.interior[row] && !(extra && extra_bins->count(cell_index) > 0);
-      for_each_offset<dim, 2>([&](const IVec<dim>& offset) {
-        corner_mass[corners.index(cell + offset)] += share;
-        if (!exact) corner_inexact[corners.index(cell + offset)] = 1;
-      });
+      for_each_offset<dim, 2>([&](const IVec<dim>& offset) { corner_mass[corners.index(cell + offset)] += share; });
       continue;
     }
-    for_each_offset<dim, 2>([&](const IVec<dim>& offset) { corner_inexact[corners.index(cell + offset)] = 1; });
     for (int p = bins.begin(cell_index); p < bins.end(cell_index); ++p) {
       const auto stencil = linear_stencil<dim>(grid.to_cells(particles.position[p]), grid.dx);
       const Real quadrature_mass = particles.mass[p];
