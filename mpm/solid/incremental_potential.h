@@ -238,20 +238,20 @@ class SolidIncrementalPotential {
   };
 
   Linearization linearize(const Vector& v, bool project_to_psd) const {
-    const int n = particle_count();
     Linearization out;
     out.stiffness = particle_stiffness(v, project_to_psd);
     out.diagonal = mass_;
-    // H_(i a),(i a) = m_i + sum_p sum_cd A_(c dim + a),(d dim + a) b_i[c] b_i[d].
-    for (int p = 0; p < n; ++p)
-      for (int e = 0; e < kStencil; ++e) {
-        const int r = stencil_free_[p * kStencil + e];
-        if (r < 0) continue;
-        const Vec<dim>& b = b_[p * kStencil + e];
+    // H_(i a),(i a) = m_i + sum_p sum_cd A_(c dim + a),(d dim + a) b_i[c] b_i[d], node by node
+    // over its particles in increasing p (scatter_to_nodes' order: bits independent of threads).
+    const int free_count = int(free_node_.size());
+#pragma omp parallel for schedule(static)
+    for (int r = 0; r < free_count; ++r)
+      for (int k = node_entry_start_[r]; k < node_entry_start_[r + 1]; ++k) {
+        const TensorMat<dim>& A = out.stiffness[node_entries_[k] / kStencil];
+        const Vec<dim>& b = b_[node_entries_[k]];
         for (int a = 0; a < dim; ++a)
           for (int c = 0; c < dim; ++c)
-            for (int d = 0; d < dim; ++d)
-              out.diagonal[dim * r + a] += out.stiffness[p](c * dim + a, d * dim + a) * b[c] * b[d];
+            for (int d = 0; d < dim; ++d) out.diagonal[dim * r + a] += A(c * dim + a, d * dim + a) * b[c] * b[d];
       }
     for (int k : fixed_entries_) out.diagonal[k] = mass_[k];
     return out;
