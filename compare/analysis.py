@@ -189,6 +189,13 @@ def reduce_series_u(t: np.ndarray, y: np.ndarray, reducer: str, tail: float = 0.
                     window: float = 0.0, until: float | None = None) -> tuple[float, float]:
     """``reduce_series`` and the value's expanded uncertainty (k = 2; NaN for reducers
     without one: only the fitted periods and frequencies have one)."""
+    if reducer == "decay":
+        # The fitted envelope over the first two periods: every sample counts, where
+        # counting half-cycles took one extremum each and split them on noise.
+        fit = fitted_period(t, y, periods=2.0)
+        if not fit.periods >= 1.9:
+            return math.nan, math.nan
+        return fit.decay_ratio, fit.decay_ratio_uncertainty
     if reducer in ("early_period", "period", "frequency"):
         fit = fitted_period(t, y, periods=2.0 if reducer == "early_period" else None)
         if reducer == "frequency":
@@ -201,7 +208,7 @@ def reduce_series_u(t: np.ndarray, y: np.ndarray, reducer: str, tail: float = 0.
 
 def reduce_series(t: np.ndarray, y: np.ndarray, reducer: str, tail: float = 0.5,
                   window: float = 0.0, until: float | None = None) -> float:
-    if reducer in ("early_period", "period", "frequency"):
+    if reducer in ("early_period", "period", "frequency", "decay"):
         return reduce_series_u(t, y, reducer, tail, window, until)[0]
     s = Series.of(t, y)
     if len(s.t) == 0:
@@ -234,8 +241,6 @@ def reduce_series(t: np.ndarray, y: np.ndarray, reducer: str, tail: float = 0.5,
             return float(s.y[-1])
         window = slice(up[0] + 1, up[-1] + 1)
         return float(np.trapz(y_tail[window], t_tail[window]) / (t_tail[up[-1]] - t_tail[up[0] + 1]))
-    if reducer == "decay":
-        return decay_ratio(s.t, s.y, tail)
     raise CompareError(f"unknown scalar reducer '{reducer}'")
 
 
@@ -299,16 +304,6 @@ def early_period(t: np.ndarray, y: np.ndarray, tail: float = 0.4, periods: int =
     return float((starts[2 * periods] - starts[0]) / periods)
 
 
-def decay_ratio(t: np.ndarray, y: np.ndarray, tail: float = 0.4, periods: int = 2) -> float:
-    """Amplitude ratio per period of a decaying oscillation: (A_2n / A_0)^(1/n) over the first
-    n = ``periods`` periods, A_k the k-th half-cycle's amplitude (the first is the release);
-    NaN when the run has fewer half-cycles."""
-    amplitudes = half_cycle_amplitudes(t, y, tail)
-    if len(amplitudes) < 2 * periods + 1 or amplitudes[0] <= 0:
-        return math.nan
-    return float((amplitudes[2 * periods] / amplitudes[0]) ** (1.0 / periods))
-
-
 @dataclass(frozen=True)
 class PeriodFit:
     """A period fitted to a (damped) oscillation: ``value`` ± ``uncertainty`` (expanded, k = 2:
@@ -319,6 +314,10 @@ class PeriodFit:
     window: tuple[float, float]
     periods: float
     decay_rate: float  # 1/s of the fitted envelope exp(-rate (t - t0))
+    # exp(-rate period): the envelope's ratio over one period, and its expanded uncertainty
+    # (k = 2, from the covariance of rate and omega as the period's).
+    decay_ratio: float = math.nan
+    decay_ratio_uncertainty: float = math.nan
 
 
 NO_PERIOD = PeriodFit(math.nan, math.nan, (math.nan, math.nan), 0.0, math.nan)
@@ -449,10 +448,15 @@ def fitted_period(t: np.ndarray, y: np.ndarray, periods: float | None = 2.0,
         if signal <= 0:
             continue
         rel = float(np.sqrt(np.mean(resid**2))) / signal
-        sigma_omega = math.sqrt(max(cov[4, 4], 0.0) * correlation_time(resid))
+        inflation = correlation_time(resid)
+        sigma_omega = math.sqrt(max(cov[4, 4], 0.0) * inflation)
         u = 2.0 * period * period / (2 * math.pi) * sigma_omega
+        # q = exp(-rate T), T = 2 pi / omega: dq/drate = -T q, dq/domega = rate T q / omega.
+        q = math.exp(-p[3] * period)
+        gradient = np.array([-period * q, p[3] * period * q / p[4]])
+        q_variance = float(gradient @ cov[3:5, 3:5] @ gradient) * inflation
         est = PeriodFit(float(period), float(u), (t0, float(t0 + tau[-1])),
-                        float(tau[-1] / period), float(p[3]))
+                        float(tau[-1] / period), float(p[3]), q, 2.0 * math.sqrt(max(q_variance, 0.0)))
         if best is None or rel < best[0]:
             best = (rel, est)
     return best[1] if best is not None else NO_PERIOD

@@ -197,7 +197,7 @@ def write_report(result: BenchmarkResult, out_dir: Path, extra_status: Sequence[
         lines.append("")
     if result.scalar_rows:
         lines += ["### Scalars", "",
-                  "± : expanded uncertainty (k = 2) of a fitted period or frequency. "
+                  "± : expanded uncertainty (k = 2) of a fitted period, frequency or decay ratio. "
                   "*beyond uncertainty*: |value - reference| > sqrt(U_value^2 + U_reference^2) "
                   "(`no`: the difference is within the estimates' own uncertainty); `-` without "
                   "an uncertainty. A zero reference (or one within the quantity's noise floor) "
