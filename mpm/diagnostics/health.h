@@ -81,7 +81,8 @@ std::vector<int> body_pieces(const Simulation<dim>& sim, Real link) {
     return p;
   };
   const Real link2 = link * link;
-  for (int p = 0; p < n; ++p)
+  for (int p = 0; p < n; ++p) {
+    const int rp = root(p);  // stays p's root: a union below only hangs other roots under it
     for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
       const IVec<dim> b = bin[p] + offset - IVec<dim>::Ones();
       if (!bins.contains(b)) return;
@@ -89,10 +90,11 @@ std::vector<int> body_pieces(const Simulation<dim>& sim, Real link) {
       for (int i = start[k]; i < start[k + 1]; ++i) {
         const int q = order[i];
         if (q <= p || solid.body[q] != solid.body[p]) continue;
-        const int rp = root(p), rq = root(q);  // most neighbours are joined already
+        const int rq = root(q);  // most neighbours are joined already
         if (rp != rq && (solid.position[q] - solid.position[p]).squaredNorm() < link2) parent[rq] = rp;
       }
     });
+  }
   for (int p = 0; p < n; ++p)
     if (root(p) == p) ++pieces[solid.body[p]];
   return pieces;

@@ -151,6 +151,7 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
       earlier_wall_s = state.at("wall_time_s").get<double>();
       resumed_from = state.at("resumed_from");
       dt_retries = state.at("dt_retries").get<long>();
+      checks_timer.add("health checks", state.value("health_checks_s", 0.0));  // older checkpoints lack it
       result.metrics = unflatten_rows(archive.doubles("run.metrics"), result.columns.size());
       step_rows = unflatten_rows(archive.doubles("run.steps"), step_columns.size());
       sim.restore_state(archive);
@@ -204,6 +205,7 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
                              {"wall_time_s", earlier_wall_s + elapsed()},
                              {"resumed_from", resumed_from},
                              {"dt_retries", dt_retries},
+                             {"health_checks_s", checks_timer.total()},
                              {"frames", writer->frames_written()}};
     archive.put("run.metrics", flatten_rows(result.metrics));
     archive.put("run.steps", flatten_rows(step_rows));
