@@ -117,11 +117,26 @@ class CostPoint:
 
 
 @dataclass
+class CostBound:
+    """One solver's run at least as accurate as the other's most accurate run, and cheaper:
+    the ratio at matched error is at least ``t_slow / t_fast`` when the slower solver's
+    error falls with its cost (no interpolation possible: the error ranges do not overlap)."""
+
+    fast: CostPoint
+    slow: CostPoint
+
+    @property
+    def ratio(self) -> float:
+        return self.slow.wall_time / self.fast.wall_time
+
+
+@dataclass
 class CostResult:
     measure: str  # what "error" is
     points: list[CostPoint]
     ratios: list[tuple[float, float, float]]  # (error, t_iqmpm, t_interFoam)
     note: str = ""
+    bounds: list[CostBound] = field(default_factory=list)
 
 
 @dataclass
@@ -805,7 +820,23 @@ def _cost_section(result: BenchmarkResult, bench: Benchmark, specs: Sequence[Met
     points: list[CostPoint] = []
     note = ""
     foam_eval = list(foam)
-    if ref_key == "foam":
+    own_finest: dict[str, Run] = {}
+    if ref_key == "self":
+        # Each solver against its own finest run: a stand-in for its grid-converged limit,
+        # where the solvers' limits differ by more than their grid errors (dam_break's
+        # front: docs/benchmarks.md).
+        for solver, runs in (("IQ-MPM", ours), ("interFoam", foam)):
+            if len(runs) >= 2:
+                own_finest[solver] = runs[-1]
+        if not own_finest:
+            result.notes.append("run time vs error: needs two or more levels of a solver (--levels 1,2,3)")
+            return
+        ours = list(ours[:-1]) if "IQ-MPM" in own_finest else []
+        foam_eval = list(foam[:-1]) if "interFoam" in own_finest else []
+        reference: Reference | Run | None = None
+        measure = (f"relative L2 of {spec.column} against each solver's own finest run ("
+                   + ", ".join(r.label for r in own_finest.values()) + ", excluded from the curves)")
+    elif ref_key == "foam":
         if not foam:
             result.notes.append("run time vs error: no interFoam run to measure against")
             return
@@ -824,7 +855,7 @@ def _cost_section(result: BenchmarkResult, bench: Benchmark, specs: Sequence[Met
             if r.metrics is None or spec.column not in r.metrics.columns:
                 continue
             try:
-                e = _error_against(r, spec, reference, options)
+                e = _error_against(r, spec, own_finest.get(solver, reference), options)
             except CompareError as exc:
                 result.notes.append(f"run time vs error, {r.label}: {exc}")
                 continue
@@ -833,10 +864,11 @@ def _cost_section(result: BenchmarkResult, bench: Benchmark, specs: Sequence[Met
     mine = [p for p in points if p.solver == "IQ-MPM"]
     theirs = [p for p in points if p.solver == "interFoam"]
     ratios = matched_ratios(mine, theirs)
-    if not ratios:
+    bounds = [] if ratios else dominance_bounds(mine, theirs)
+    if not ratios and not bounds:
         note = ("no matched error: the two solvers' error ranges do not overlap, or neither "
                 "has two levels to interpolate between (use --levels 1,2,3)")
-    result.cost = CostResult(measure, points, ratios, note)
+    result.cost = CostResult(measure, points, ratios, note, bounds)
     curves = [plots.Curve(np.array([p.wall_time for p in pts]),
                           np.array([p.error for p in pts]), name)
               for name, pts in (("IQ-MPM", mine), ("interFoam", theirs)) if pts]
@@ -863,6 +895,24 @@ def time_at_error(points: Sequence[CostPoint], error: float) -> float | None:
         if p.error == error:
             return p.wall_time
     return None
+
+
+def dominance_bounds(mine: Sequence[CostPoint], theirs: Sequence[CostPoint]) -> list[CostBound]:
+    """Where the error ranges do not overlap: the cheapest run of one solver at least as
+    accurate as the other's most accurate run, if it is also cheaper than that run. Valid as
+    a bound on the ratio at matched error when the slower solver's error falls with its cost
+    (its cheaper runs are less accurate still)."""
+    out: list[CostBound] = []
+    for a, b in ((mine, theirs), (theirs, mine)):
+        a = [p for p in a if p.error >= 0 and p.wall_time > 0]
+        b = [p for p in b if p.error >= 0 and p.wall_time > 0]
+        if not a or not b:
+            continue
+        best = min(b, key=lambda p: (p.error, p.wall_time))
+        better = [p for p in a if p.error <= best.error and p.wall_time < best.wall_time]
+        if better:
+            out.append(CostBound(min(better, key=lambda p: p.wall_time), best))
+    return out
 
 
 def matched_ratios(mine: Sequence[CostPoint],

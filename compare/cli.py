@@ -347,6 +347,11 @@ def _cmd_cost(args: argparse.Namespace) -> int:
     for err, t_ours, t_foam in c.ratios:
         print(f"  matched error {pct(err)} %: IQ-MPM {fmt(t_ours)} s, interFoam {fmt(t_foam)} s,"
               f" ratio interFoam/IQ-MPM {fmt(t_foam / t_ours, 3)}")
+    for b in c.bounds:
+        ratio = b.ratio if b.fast.solver == "IQ-MPM" else 1 / b.ratio
+        print(f"  no matched error: {b.fast.solver} L{b.fast.level} ({pct(b.fast.error)} %) is at least as "
+              f"accurate as {b.slow.solver} L{b.slow.level} ({pct(b.slow.error)} %): ratio interFoam/IQ-MPM "
+              f"{'>=' if b.fast.solver == 'IQ-MPM' else '<='} {fmt(ratio, 3)}")
     if c.note:
         print(f"  {c.note}")
     print(f"plot: {out_dir / 'cost.png'}")

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from compare.analysis import CostPoint, matched_ratios, time_at_error
+from compare.analysis import CostPoint, dominance_bounds, matched_ratios, time_at_error
 from compare.convergence import observed_order, richardson
 from compare.io import CompareError
 
@@ -55,3 +55,23 @@ def test_wall_time_at_matched_error_is_loglog_interpolated():
     assert len(ratios) == 1
     err, t_ours, t_foam = ratios[0]
     assert t_foam / t_ours == pytest.approx(10**0.5 / 2.0)
+
+
+def test_dominance_bound_where_the_error_ranges_do_not_overlap():
+    """dam_break's front (2026-12-02): IQ-MPM's coarsest run is more accurate than
+    interFoam's most accurate one and cheaper, so no error is matched by interpolation; the
+    ratio at matched error is then at least t(interFoam L2) / t(IQ-MPM L1)."""
+    ours = [CostPoint("IQ-MPM", 1, 2.1, 0.0033), CostPoint("IQ-MPM", 2, 29.2, 0.0010)]
+    foam = [CostPoint("interFoam", 1, 3.3, 0.0124), CostPoint("interFoam", 2, 16.3, 0.0098)]
+    assert matched_ratios(ours, foam) == []
+    bounds = dominance_bounds(ours, foam)
+    assert len(bounds) == 1
+    assert (bounds[0].fast.level, bounds[0].slow.level) == (1, 2)
+    assert bounds[0].ratio == pytest.approx(16.3 / 2.1)
+    # The other way round (interFoam dominates): a bound on that side.
+    swapped = [CostPoint("IQ-MPM", p.level, p.wall_time, p.error) for p in foam]
+    back = [CostPoint("interFoam", p.level, p.wall_time, p.error) for p in ours]
+    assert [b.fast.solver for b in dominance_bounds(swapped, back)] == ["interFoam"]
+    # More accurate but dearer than the other's best run: no bound either way.
+    dear = [CostPoint("IQ-MPM", 1, 20.0, 0.0033)]
+    assert dominance_bounds(dear, foam) == []
