@@ -203,10 +203,10 @@ def _ours_series(run: Run, spec: MetricSpec) -> Series:
 def reduce_series_u(t: np.ndarray, y: np.ndarray, reducer: str, tail: float = 0.5,
                     window: float = 0.0, until: float | None = None) -> tuple[float, float]:
     """``reduce_series`` and the value's expanded uncertainty (k = 2; NaN for reducers
-    without one: only the fitted periods and frequencies have one)."""
+    without one: only the fitted periods, frequencies and decay ratios have one)."""
     if reducer == "decay":
-        # The fitted envelope over the first two periods: every sample counts, where
-        # counting half-cycles took one extremum each and split them on noise.
+        # The fitted envelope over the first two periods: every sample counts, not one
+        # extremum a half-cycle (which sloshing and noise move).
         fit = fitted_period(t, y, periods=2.0)
         if not fit.periods >= 1.9:
             return math.nan, math.nan
@@ -467,7 +467,7 @@ def fitted_period(t: np.ndarray, y: np.ndarray, periods: float | None = 2.0,
         sigma_omega = math.sqrt(max(cov[4, 4], 0.0) * inflation)
         u = 2.0 * period * period / (2 * math.pi) * sigma_omega
         # q = exp(-rate T), T = 2 pi / omega: dq/drate = -T q, dq/domega = rate T q / omega.
-        q = math.exp(-p[3] * period)
+        q = math.exp(min(-p[3] * period, 700.0))  # a spurious fit must not overflow
         gradient = np.array([-period * q, p[3] * period * q / p[4]])
         q_variance = float(gradient @ cov[3:5, 3:5] @ gradient) * inflation
         est = PeriodFit(float(period), float(u), (t0, float(t0 + tau[-1])),
@@ -835,7 +835,8 @@ def _cost_section(result: BenchmarkResult, bench: Benchmark, specs: Sequence[Met
         foam_eval = list(foam[:-1]) if "interFoam" in own_finest else []
         reference: Reference | Run | None = None
         measure = (f"relative L2 of {spec.column} against each solver's own finest run ("
-                   + ", ".join(r.label for r in own_finest.values()) + ", excluded from the curves)")
+                   + ", ".join(r.label for r in own_finest.values())
+                   + ", excluded from the curves): how far each is from its own limit, not from the other's")
     elif ref_key == "foam":
         if not foam:
             result.notes.append("run time vs error: no interFoam run to measure against")

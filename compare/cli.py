@@ -349,8 +349,8 @@ def _cmd_cost(args: argparse.Namespace) -> int:
               f" ratio interFoam/IQ-MPM {fmt(t_foam / t_ours, 3)}")
     for b in c.bounds:
         ratio = b.ratio if b.fast.solver == "IQ-MPM" else 1 / b.ratio
-        print(f"  no matched error: {b.fast.solver} L{b.fast.level} ({pct(b.fast.error)} %) is at least as "
-              f"accurate as {b.slow.solver} L{b.slow.level} ({pct(b.slow.error)} %): ratio interFoam/IQ-MPM "
+        print(f"  no matched error: {b.fast.solver} L{b.fast.level} ({pct(b.fast.error)} %) has no larger error "
+              f"than {b.slow.solver} L{b.slow.level} ({pct(b.slow.error)} %): ratio interFoam/IQ-MPM "
               f"{'>=' if b.fast.solver == 'IQ-MPM' else '<='} {fmt(ratio, 3)}")
     if c.note:
         print(f"  {c.note}")

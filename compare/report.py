@@ -252,7 +252,7 @@ def write_report(result: BenchmarkResult, out_dir: Path, extra_status: Sequence[
             bound = "≥" if b.fast.solver == "IQ-MPM" else "≤"
             ratio = b.ratio if b.fast.solver == "IQ-MPM" else 1 / b.ratio
             lines.append(f"- No matched error: {b.fast.solver} L{b.fast.level} ({pct(b.fast.error)} %, "
-                         f"{fmt(b.fast.wall_time)} s) is at least as accurate as {b.slow.solver}'s most "
+                         f"{fmt(b.fast.wall_time)} s) has no larger error than {b.slow.solver}'s most "
                          f"accurate run, L{b.slow.level} ({pct(b.slow.error)} %, {fmt(b.slow.wall_time)} s): "
                          f"wall-time ratio interFoam / IQ-MPM at matched error **{bound} {fmt(ratio, 3)}** "
                          f"(if {b.slow.solver}'s error falls with its cost).")

@@ -58,7 +58,7 @@ def test_wall_time_at_matched_error_is_loglog_interpolated():
 
 
 def test_dominance_bound_where_the_error_ranges_do_not_overlap():
-    """dam_break's front (2026-12-02): IQ-MPM's coarsest run is more accurate than
+    """dam_break's front, as measured: IQ-MPM's coarsest run is more accurate than
     interFoam's most accurate one and cheaper, so no error is matched by interpolation; the
     ratio at matched error is then at least t(interFoam L2) / t(IQ-MPM L1)."""
     ours = [CostPoint("IQ-MPM", 1, 2.1, 0.0033), CostPoint("IQ-MPM", 2, 29.2, 0.0010)]
