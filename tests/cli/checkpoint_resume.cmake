@@ -33,6 +33,8 @@ foreach(case "dam_break/dam_break.json;0.06;0.1" "elastic_gate/elastic_gate.json
   file(REMOVE_RECURSE ${straight} ${resumed})
   run_or_fail(run ${SOURCE}/benchmarks/${scene} --out ${straight} --set end_time=${full})
   run_or_fail(run ${SOURCE}/benchmarks/${scene} --out ${resumed} --set end_time=${half})
+  file(READ ${resumed}/summary.json first_half)
+  string(JSON checks_first_half GET "${first_half}" stage_seconds "health checks")
   run_or_fail(resume ${resumed} --set end_time=${full})
   execute_process(COMMAND ${CMAKE_COMMAND} -E compare_files ${straight}/metrics.csv ${resumed}/metrics.csv RESULT_VARIABLE differ)
   if(differ)
@@ -55,6 +57,11 @@ foreach(case "dam_break/dam_break.json;0.06;0.1" "elastic_gate/elastic_gate.json
   string(JSON resumed_t GET "${summary}" resumed_from 0 t)
   if(NOT resumed_t EQUAL ${half})
     message(FATAL_ERROR "${name}: summary.json resumed_from[0].t = ${resumed_t}, expected ${half}")
+  endif()
+  # Stage times add up over the pieces of a run, the health checks' too.
+  string(JSON checks_whole GET "${summary}" stage_seconds "health checks")
+  if(NOT checks_whole GREATER checks_first_half)
+    message(FATAL_ERROR "${name}: the resumed run's health checks took ${checks_whole} s in all, not more than the first half's ${checks_first_half} s")
   endif()
 endforeach()
 
