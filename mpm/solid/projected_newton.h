@@ -7,13 +7,8 @@
 // by CG with a diagonal preconditioner (on products H x without assembling H when the
 // Potential offers linearize(x, project) -> {diagonal, ...} and hessian_product(linear, x);
 // the solid's does), to the relative tolerance
-//   eta_k = min(cg_max_tolerance, max(cg_min_tolerance, cg_forcing ||g_k|| / ||g_0||,
-//                                     cg_stop_margin tolerance / ||g_k||)),
-// which keeps Newton's local quadratic rate (inexact Newton with eta_k = O(||g_k||)); the
-// last term asks CG for no more than the stop needs (a Newton step leaves about
-// eta_k ||g_k|| of gradient). A Newton iteration (energy, SVDs, stiffness, line search)
-// costs several CG products, so the first direction is already solved well
-// (cg_max_tolerance; method.md#solid-step has the measurement).
+// eta_k = min(cg_max_tolerance, max(cg_min_tolerance, cg_forcing ||g_k|| / ||g_0||)), which
+// keeps Newton's local quadratic rate (inexact Newton with eta_k = O(||g_k||)).
 // Step: backtracking (Armijo) line search on the energy; a trial with a non-finite energy
 // (e.g. an inverted neo-Hookean particle) is rejected like one that does not decrease.
 // Stop: ||g_k|| <= max(relative_tolerance ||g_0||, absolute_tolerance gradient_scale()), or a
@@ -26,7 +21,6 @@
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 
-#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -46,10 +40,9 @@ struct ProjectedNewtonOptions {
   int max_iterations = 50;          // Newton iterations
   bool project_hessian = true;      // per-particle PSD projection of dP/dF (SPD system)
   bool direct = false;              // LDL^T factorisation instead of CG for the direction
-  Real cg_forcing = 0.1;            // eta_k = cg_forcing ||g_k|| / ||g_0||, clamped to:
-  Real cg_max_tolerance = 1e-2;
+  Real cg_forcing = 1;              // eta_k = cg_forcing ||g_k|| / ||g_0||, clamped to:
+  Real cg_max_tolerance = 0.5;
   Real cg_min_tolerance = 1e-12;
-  Real cg_stop_margin = 0.5;        // eta_k >= cg_stop_margin tolerance / ||g_k||
   int cg_max_iterations = 1000;     // per Newton iteration; an unfinished CG still descends
   Real armijo = 1e-4;               // sufficient decrease E(x + a d) <= E(x) + armijo a g.d
   Real backtracking_factor = 0.5;
@@ -162,9 +155,8 @@ NewtonResult minimize_projected_newton(const Potential& potential, Eigen::Matrix
       }
     }
     if (!solved) {  // CG, or the factorisation failed (an unprojected, singular Hessian)
-      const Real tolerance = std::min(
-          options.cg_max_tolerance, std::max({options.cg_min_tolerance, options.cg_forcing * g_norm / g0,
-                                              options.cg_stop_margin * result.tolerance / g_norm}));
+      const Real tolerance =
+          std::min(options.cg_max_tolerance, std::max(options.cg_min_tolerance, options.cg_forcing * g_norm / g0));
       if constexpr (HasHessianProducts<Potential>::value) {
         const auto linear = potential.linearize(x, options.project_hessian);
         // Eigen's DiagonalPreconditioner: 1 / diagonal, 1 where the diagonal is 0.
