@@ -265,7 +265,8 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
         "inertia", scene.fluid.inertia,
         {{"auto", FluidInertia::automatic}, {"quadrature", FluidInertia::quadrature}, {"transfer", FluidInertia::transfer}},
         "mass of the fluid corners in the projection: quadrature, M^f of the pressure quadrature; transfer, the mass "
-        "the particles carry to a corner (P2G) where it is larger than M^f and the corner's cells are full of water, "
+        "the particles carry to a corner (P2G) where it is larger than M^f and every cell of the corner is interior "
+        "(no empty neighbour, no borrowed volume), "
         "with gravity still weighted by M^f so that water at rest stays in hydrostatic balance; auto: transfer without "
         "solids, quadrature with them (docs/method.md#fluid-inertia)");
     scene.fluid.initial_velocity = fluid.vector("initial_velocity", std::vector<Real>(dim, 0), dim, "initial velocity of the fluid (m/s)");
