@@ -30,6 +30,52 @@ void for_each_cell_around(const Grid<dim>& grid, const std::vector<Real>& point,
   for_each_offset<dim, 2>([&](const IVec<dim>& offset) { f(IVec<dim>(first + offset), cells.index(first + offset)); });
 }
 
+// The pressure at x interpolated multilinearly between the centres of the 2^dim dual cells
+// around it (for_each_cell_around's block; linear extrapolation between a wall and the
+// first centres). Exact for a pressure linear in x, such as hydrostatic water below its
+// top cell layer; empty cells count as 0.
+template <int dim, class Pressure>
+Real interpolated_pressure(const Grid<dim>& grid, const Vec<dim>& x, Pressure&& pressure) {
+  const auto cells = grid.dual_cells();
+  const Vec<dim> xi = grid.to_cells(x) - Vec<dim>::Constant(Real(0.5));
+  IVec<dim> first;
+  Vec<dim> t;
+  for (int a = 0; a < dim; ++a) {
+    first[a] = std::min(std::max(int(std::floor(xi[a])), 0), grid.cells[a] - 2);
+    t[a] = xi[a] - first[a];
+  }
+  Real sum = 0;
+  for_each_offset<dim, 2>([&](const IVec<dim>& offset) {
+    Real weight = 1;
+    for (int a = 0; a < dim; ++a) weight *= offset[a] ? t[a] : 1 - t[a];
+    sum += weight * pressure(cells.index(IVec<dim>(first + offset)));
+  });
+  return sum;
+}
+
+// The mean of interpolated_pressure over the box of side `sensor` around the point, clipped
+// to the domain, by the midpoint rule on at least two samples a cell along each axis (exact
+// for a linear pressure; a checkerboard mode averages out over a box of a few cells).
+template <int dim, class Pressure>
+Real sensor_pressure(const Grid<dim>& grid, const std::vector<Real>& point, Real sensor, Pressure&& pressure) {
+  Vec<dim> lower, size;
+  IVec<dim> samples;
+  for (int a = 0; a < dim; ++a) {
+    lower[a] = std::max(point[a] - sensor / 2, grid.origin[a]);
+    size[a] = std::min(point[a] + sensor / 2, grid.upper()[a]) - lower[a];
+    samples[a] = std::max(2, int(std::ceil(2 * size[a] / grid.dx)));
+  }
+  const GridLayout<dim> layout(IVec<dim>::Zero(), samples);
+  Real sum = 0;
+  for (int k = 0; k < layout.size(); ++k) {
+    const IVec<dim> s = layout.multi_index(k);
+    Vec<dim> x;
+    for (int a = 0; a < dim; ++a) x[a] = lower[a] + (s[a] + Real(0.5)) * size[a] / samples[a];
+    sum += interpolated_pressure(grid, x, pressure);
+  }
+  return sum / layout.size();
+}
+
 template <int dim>
 class Probes {
  public:
@@ -184,6 +230,8 @@ Real Probes<dim>::evaluate(const Simulation<dim>& sim, std::size_t i) const {
     return sum / columns;
   }
   case ProbeType::pressure: {
+    if (probe.sensor > 0)
+      return sensor_pressure(grid, probe.point, probe.sensor, [&](int k) { return sim.fluid_pressure(k); });
     // Mean of the 2^dim dual cells nearest the point. The block holds cells of every Q1-P0
     // sublattice, so the checkerboard pressure mode, which moves no fluid, averages out.
     // Empty cells count as 0.

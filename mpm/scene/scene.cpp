@@ -108,6 +108,11 @@ ProbeSpec read_probe(JsonReader& r, int dim, const std::vector<Real>& domain_min
     p.point = r.vector("point", std::nullopt, dim,
                        "pressure: mean of the 2^dim dual cells nearest the point (Pa); hydrostatic_head: p / (rho_f |g|) + "
                        "height over those cells that hold water (m); displacement: a material point within dx of a solid (m)");
+  if (p.type == ProbeType::pressure || doc)
+    p.sensor = r.number("sensor", 0, 0, kInf,
+                        "pressure: side of the sensor (m), a box around the point clipped to the domain: the mean over it of "
+                        "the pressure interpolated (multilinear) between dual-cell centres, the same footprint at every dx; "
+                        "0 = the mean of the 2^dim nearest dual cells (a footprint of about 2 dx)");
   if (p.type == ProbeType::wall_force || doc) {
     std::vector<std::string> sides;
     for (int a = 0; a < dim; ++a) sides.insert(sides.end(), {side_name(a, 0), side_name(a, 1)});
@@ -316,7 +321,15 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
   {
     JsonReader newton = root.object("newton", "projected Newton of the implicit solid step (method.md §3 step 2)");
     auto& o = scene.newton;
-    o.relative_tolerance = newton.number("relative_tolerance", o.relative_tolerance, 0, 1, "stop when |gradient| <= this x the first gradient norm of the step", true);
+    o.relative_tolerance = newton.number("relative_tolerance", o.relative_tolerance, 0, 1,
+                                         "with direct directions: stop when |gradient| <= this x the first gradient norm of the step; "
+                                         "with either, a gradient stalled at the round-off floor within 100 times this counts as converged",
+                                         true);
+    o.cg_relative_tolerance = newton.number(
+        "cg_relative_tolerance", o.cg_relative_tolerance, 0, 1,
+        "the same stop with CG directions, tighter: a CG step ends just below it where an exact step overshoots "
+        "(docs/method.md#solid-step)",
+        true);
     o.absolute_tolerance = newton.number("absolute_tolerance", o.absolute_tolerance, 0, 1,
                                          "also stop when |gradient| <= this x |m| (max |v^n| + dx/dt), a momentum scale: "
                                          "a body in free fall has a gradient at the roundoff floor");

@@ -49,6 +49,7 @@ struct ProbeSpec {
   Real position = 0;          // water_height: coordinate along the first axis
   Real position_to = kNoRange;  // water_height: mean over gauges every dx from position to here
   std::vector<Real> point;    // pressure; displacement: the material point followed
+  Real sensor = 0;            // pressure: side of the sensing box (m); 0 = the 2^dim nearest cells
   int wall_axis = 0, wall_side = 0;  // wall_force
   Real surface = 0;           // hydrostatic_pressure_error: still-water level
   Real initial_angle = 0;     // solid_angle: the body's orientation at t = 0 (rad), added to its rotation
@@ -85,6 +86,7 @@ struct SolidSpec {
 // Projected Newton options of the implicit solid step (method.md §3 step 2).
 struct NewtonSpec {
   Real relative_tolerance = 1e-5;
+  Real cg_relative_tolerance = 1e-7;
   Real absolute_tolerance = 1e-9;
   int max_iterations = 50;
   int cg_max_iterations = 1000;

@@ -39,6 +39,7 @@ inline StepOptions resolve_step_options(const SceneSpec& scene) {
   if (o.solid_stiffness_in_solve) o.pressure_solver.method = LinearSolverMethod::ldlt;
   o.pressure_solver.simplicial = o.unilateral || o.solid_stiffness_in_solve;
   o.newton.relative_tolerance = scene.newton.relative_tolerance;
+  o.newton.cg_relative_tolerance = scene.newton.cg_relative_tolerance;
   o.newton.absolute_tolerance = scene.newton.absolute_tolerance;
   o.newton.max_iterations = scene.newton.max_iterations;
   o.newton.cg_max_iterations = scene.newton.cg_max_iterations;

@@ -7,12 +7,20 @@
 // by CG with a diagonal preconditioner (on products H x without assembling H when the
 // Potential offers linearize(x, project) -> {diagonal, ...} and hessian_product(linear, x);
 // the solid's does), to the relative tolerance
-// eta_k = min(cg_max_tolerance, max(cg_min_tolerance, cg_forcing ||g_k|| / ||g_0||)), which
-// keeps Newton's local quadratic rate (inexact Newton with eta_k = O(||g_k||)).
+//   eta_k = min(cg_max_tolerance, max(cg_min_tolerance, cg_forcing ||g_k|| / ||g_0||,
+//                                     cg_stop_margin cg_stop / ||g_k||)),
+// which keeps Newton's local quadratic rate (inexact Newton with eta_k = O(||g_k||)) and asks
+// CG for no more than the stop needs (a step leaves about eta_k ||g_k|| of gradient). A
+// Newton iteration (energy, SVDs, stiffness, line search) costs several CG products, so the
+// first direction is already solved to cg_max_tolerance.
 // Step: backtracking (Armijo) line search on the energy; a trial with a non-finite energy
 // (e.g. an inverted neo-Hookean particle) is rejected like one that does not decrease.
-// Stop: ||g_k|| <= max(relative_tolerance ||g_0||, absolute_tolerance gradient_scale()), or a
-// gradient stalled at the round-off floor just above that (see stall_change).
+// Stop: ||g_k|| <= max(relative_tolerance ||g_0||, absolute_tolerance gradient_scale()), with
+// cg_relative_tolerance in place of relative_tolerance for CG directions (cg_stop), since an
+// exact step lands quadratically below the stop and a forced CG step only just below it
+// (method.md#solid-step); the CG that stands in for a failed factorisation is forced towards
+// cg_stop too. Or a gradient stalled at the round-off floor within stall_factor of the direct
+// stop.
 // The result reports every gradient norm and why the iteration stopped; a step that did not
 // converge is returned as such (the caller decides whether that is a NumericalFailure).
 #pragma once
@@ -21,6 +29,7 @@
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -35,19 +44,22 @@
 namespace iqmpm {
 
 struct ProjectedNewtonOptions {
-  Real relative_tolerance = 1e-5;   // on ||g_k|| / ||g_0||
+  Real relative_tolerance = 1e-5;   // on ||g_k|| / ||g_0||, exact (direct) Newton steps
+  Real cg_relative_tolerance = 1e-7;  // the same, when the directions are by CG
   Real absolute_tolerance = 1e-12;  // on ||g_k|| / gradient_scale() (a body at rest, roundoff)
   int max_iterations = 50;          // Newton iterations
   bool project_hessian = true;      // per-particle PSD projection of dP/dF (SPD system)
   bool direct = false;              // LDL^T factorisation instead of CG for the direction
-  Real cg_forcing = 1;              // eta_k = cg_forcing ||g_k|| / ||g_0||, clamped to:
-  Real cg_max_tolerance = 0.5;
+  Real cg_forcing = 0.1;            // eta_k = cg_forcing ||g_k|| / ||g_0||, clamped to:
+  Real cg_max_tolerance = 1e-2;
   Real cg_min_tolerance = 1e-12;
+  Real cg_stop_margin = 0.5;        // eta_k >= cg_stop_margin tolerance / ||g_k||
   int cg_max_iterations = 1000;     // per Newton iteration; an unfinished CG still descends
   Real armijo = 1e-4;               // sufficient decrease E(x + a d) <= E(x) + armijo a g.d
   Real backtracking_factor = 0.5;
   // A gradient that changes by less than stall_change (relative) in one iteration, within
-  // stall_factor of the tolerance, is at the round-off floor and counts as converged.
+  // stall_factor of the direct stop (relative_tolerance), is at the round-off floor and
+  // counts as converged.
   Real stall_change = 1e-6;
   Real stall_factor = 100;
   int max_backtracks = 40;
@@ -84,7 +96,7 @@ struct NewtonResult {
   std::vector<Real> gradient_norms;  // ||g_0||, ||g_1||, ...
   std::vector<Real> energies;        // E_0, E_1, ...
   Real tolerance = 0;                // the gradient norm that counted as converged
-  bool roundoff_floor = false;       // converged by stalling just above the tolerance
+  bool roundoff_floor = false;       // converged by stalling within stall_factor of the direct stop
 
   std::string summary() const {
     std::ostringstream out;
@@ -92,6 +104,7 @@ struct NewtonResult {
         << " CG, " << backtracks << " backtracks); |g| =";
     for (Real g : gradient_norms) out << ' ' << g;
     out << "; tolerance " << tolerance;
+    if (roundoff_floor) out << " (stalled at the round-off floor)";
     return out.str();
   }
 };
@@ -126,7 +139,10 @@ NewtonResult minimize_projected_newton(const Potential& potential, Eigen::Matrix
   const Real g0 = g_norm;
   result.gradient_norms.push_back(g_norm);
   result.energies.push_back(energy);
-  result.tolerance = std::max(options.relative_tolerance * g0, options.absolute_tolerance * potential.gradient_scale());
+  const Real absolute = options.absolute_tolerance * potential.gradient_scale();
+  const Real direct_tolerance = std::max(options.relative_tolerance * g0, absolute);
+  const Real cg_stop = std::max(options.cg_relative_tolerance * g0, absolute);
+  result.tolerance = options.direct ? direct_tolerance : cg_stop;
   if (!std::isfinite(g_norm)) {
     result.status = NewtonStatus::non_finite;
     return result;
@@ -155,8 +171,9 @@ NewtonResult minimize_projected_newton(const Potential& potential, Eigen::Matrix
       }
     }
     if (!solved) {  // CG, or the factorisation failed (an unprojected, singular Hessian)
-      const Real tolerance =
-          std::min(options.cg_max_tolerance, std::max(options.cg_min_tolerance, options.cg_forcing * g_norm / g0));
+      const Real eta =
+          std::min(options.cg_max_tolerance,
+                   std::max({options.cg_min_tolerance, options.cg_forcing * g_norm / g0, options.cg_stop_margin * cg_stop / g_norm}));
       if constexpr (HasHessianProducts<Potential>::value) {
         const auto linear = potential.linearize(x, options.project_hessian);
         // Eigen's DiagonalPreconditioner: 1 / diagonal, 1 where the diagonal is 0.
@@ -164,7 +181,7 @@ NewtonResult minimize_projected_newton(const Potential& potential, Eigen::Matrix
         d = Vector::Zero(g.size());
         const PcgResult cg_result = preconditioned_cg(
             [&](const Vector& y) -> Vector { return potential.hessian_product(linear, y); },
-            [&](const Vector& r, Vector& z) { z = inverse.cwiseProduct(r); }, Vector(-g), d, tolerance,
+            [&](const Vector& r, Vector& z) { z = inverse.cwiseProduct(r); }, Vector(-g), d, eta,
             options.cg_max_iterations);
         result.cg_iterations += cg_result.iterations;
         if (!cg_result.converged) ++result.cg_unfinished;
@@ -172,7 +189,7 @@ NewtonResult minimize_projected_newton(const Potential& potential, Eigen::Matrix
         const SparseMatrix H = potential.hessian(x, options.project_hessian);  // cg keeps a reference
         cg.compute(H);
         cg.setMaxIterations(options.cg_max_iterations);
-        cg.setTolerance(tolerance);
+        cg.setTolerance(eta);
         d = cg.solve(-g);
         result.cg_iterations += int(cg.iterations());
         if (cg.info() != Eigen::Success) ++result.cg_unfinished;
@@ -226,9 +243,10 @@ NewtonResult minimize_projected_newton(const Potential& potential, Eigen::Matrix
       break;
     }
     // Round-off floor: the gradient no longer changes (the energy cannot resolve the step)
-    // within a factor 100 of the tolerance. Measured on the elastic gate at dt = 1e-4 s:
+    // within a factor 100 of the direct stop. Measured on the elastic gate at dt = 1e-4 s:
     // |g| stuck at 3.17e-9 for 48 iterations against a relative tolerance of 2.4e-9.
-    if (std::abs(g_norm - previous_norm) <= options.stall_change * g_norm && g_norm <= options.stall_factor * result.tolerance) {
+    const bool stalled = std::abs(g_norm - previous_norm) <= options.stall_change * g_norm;
+    if (stalled && g_norm <= options.stall_factor * direct_tolerance) {
       result.status = NewtonStatus::converged;
       result.converged = true;
       result.roundoff_floor = true;

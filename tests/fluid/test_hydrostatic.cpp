@@ -67,6 +67,37 @@ TYPED_TEST(HydrostaticTest, HydrostaticHeadReadsTheSurfaceWhereverItSamples) {
   EXPECT_THROW(this->scene({dim == 2 ? "gravity=[0,0]" : "gravity=[0,0,0]", probes}), InputError);
 }
 
+// A pressure probe with a sensor reads the mean over its box (clipped to the domain) of the
+// pressure interpolated between cell centres: in hydrostatic water below the top cell layer
+// that is rho g (H - y) at the clipped box's centre, exactly, for a box of 0.2 m across
+// several cells, one cut by the floor, one by the x+ wall, and a point-sized one between
+// the floor and the first cell centres. Without a sensor the probe is the mean of the
+// 2^dim nearest cells, whose centres lie elsewhere (near the floor: 0.0625 | 0.125 m up
+// instead of 0.05 m).
+TYPED_TEST(HydrostaticTest, PressureSensorReadsTheMeanOverItsBox) {
+  constexpr int dim = TestFixture::dim;
+  struct Sensor {
+    double x, y, size, box_centre_y;
+  };
+  const std::vector<Sensor> sensors = {
+      {0.5, 0.25, 0.2, 0.25}, {0.3, 0.05, 0.2, 0.075}, {0.97, 0.2, 0.2, 0.2}, {0.3, 0.01, 1e-3, 0.01}, {0.3, 0.05, 0, 0}};
+  std::string probes = "probes=[";
+  for (std::size_t i = 0; i < sensors.size(); ++i)
+    probes += fmt::format(R"({}{{"type":"pressure","name":"p{}","point":[{},{}{}],"sensor":{}}})", i ? "," : "", i,
+                          sensors[i].x, sensors[i].y, dim == 3 ? ",0.4" : "", sensors[i].size);
+  probes += "]";
+  const RunResult result = run_scene(this->scene({"solver.method=cholmod", "end_time=0.05", probes}), {});
+  ASSERT_TRUE(result.ok) << result.summary["status"];
+  const double rho_g = 1000 * 9.81;
+  for (std::size_t i = 0; i + 1 < sensors.size(); ++i)
+    EXPECT_NEAR(this->metric(result, "p" + std::to_string(i)), rho_g * (0.5 - sensors[i].box_centre_y), 1e-9 * rho_g)
+        << "sensor " << i;
+  const double nearest_cells_centre = dim == 2 ? 0.0625 : 0.125;
+  EXPECT_NEAR(this->metric(result, "p4"), rho_g * (0.5 - nearest_cells_centre), 1e-9 * rho_g);
+  EXPECT_THROW(this->scene({fmt::format(R"(probes=[{{"type":"pressure","point":[0.5,0.25{}],"sensor":-0.1}}])", dim == 3 ? ",0.4" : "")}),
+               InputError);
+}
+
 TYPED_TEST(HydrostaticTest, PerturbedColumnStaysNearEquilibrium) {
   const RunResult result = run_scene(
       this->scene({"jitter=0.5", "fluid.shapes.0.max.1=0.49", "probes.0.surface=0.49"}), {});

@@ -13,6 +13,7 @@
 #include <limits>
 #include <random>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -140,6 +141,18 @@ int clamp_nodes_up_to(Block<dim>& block, int last_index, const Vec<dim>& velocit
       ++count;
     }
   return count;
+}
+
+// An undeformed block of `cells`^dim cells from cell 2, at rest with v^n = dt g, its
+// active nodes with first index <= 2 clamped at rest (a side held: at least one node).
+template <int dim>
+Block<dim> clamped_block_under_gravity(int cells, std::mt19937& rng, Real dt) {
+  Vec<dim> gravity_velocity = Vec<dim>::Zero();
+  gravity_velocity[1] = -9.81 * dt;
+  Block<dim> block = make_block<dim>(
+      2, cells, rng, [](std::mt19937&) { return Mat<dim>(Mat<dim>::Identity()); }, gravity_velocity);
+  if (clamp_nodes_up_to<dim>(block, 2, Vec<dim>::Zero()) == 0) throw std::logic_error("test block: no node clamped");
+  return block;
 }
 
 template <int dim>
@@ -291,7 +304,7 @@ TYPED_TEST(SolidPotentialTest, NewtonConvergesQuadraticallyNearTheSolution) {
   const Potential<dim> potential(block.grid, block.particles, material_of<TypeParam>(), block.nodes, dt);
   ProjectedNewtonOptions options = newton_options<dim>();
   options.project_hessian = false;
-  options.relative_tolerance = 1e-13;
+  options.relative_tolerance = options.cg_relative_tolerance = 1e-13;
   options.absolute_tolerance = 0;
   options.max_iterations = 30;
   std::vector<Vec<dim>> velocity;
@@ -315,7 +328,7 @@ TYPED_TEST(SolidPotentialTest, NewtonConvergesQuadraticallyNearTheSolution) {
   EXPECT_GE(checked, 1) << "no iteration in the asymptotic regime; " << message;
 
   options.project_hessian = true;
-  options.relative_tolerance = 1e-8;
+  options.relative_tolerance = options.cg_relative_tolerance = 1e-8;
   const NewtonResult projected =
       solid_step(block.grid, block.particles, material_of<TypeParam>(), block.nodes, dt, options, velocity);
   const Vector w = unknowns_of(potential, velocity);
@@ -405,12 +418,7 @@ TYPED_TEST(SolidStepTest, ClampedBlockUnderGravityConverges) {
   constexpr int dim = TypeParam::value;
   std::mt19937 rng(11 + dim);
   const Real dt = 2e-2;
-  Vec<dim> gravity_velocity = Vec<dim>::Zero();
-  gravity_velocity[1] = -9.81 * dt;
-  Block<dim> block = make_block<dim>(
-      2, 5, rng, [](std::mt19937&) { return Mat<dim>(Mat<dim>::Identity()); }, gravity_velocity);
-  const int clamped = clamp_nodes_up_to<dim>(block, 2, Vec<dim>::Zero());
-  ASSERT_GT(clamped, 0);
+  const Block<dim> block = clamped_block_under_gravity<dim>(5, rng, dt);
   const auto material = material_of<NeoHookean<dim>>(1e6, 0.4);
   const Potential<dim> potential(block.grid, block.particles, material, block.nodes, dt);
   const Real start_energy = potential.energy(potential.initial_velocity());
@@ -429,7 +437,29 @@ TYPED_TEST(SolidStepTest, ClampedBlockUnderGravityConverges) {
   }
   const Real mean_fall = momentum / mass;
   EXPECT_LT(mean_fall, 0);
-  EXPECT_GT(mean_fall, gravity_velocity[1]);
+  EXPECT_GT(mean_fall, -9.81 * dt);
+}
+
+// (g) Inexact Newton asks CG for the step's accuracy at once: a stiff clamped block under
+// gravity (strains ~1e-4, a nearly quadratic energy) reaches its stop (here the momentum
+// scale's) in at most two Newton iterations with CG directions. With
+// eta_k = min(0.5, ||g_k|| / ||g_0||) each iteration only thirds, then squares, the
+// gradient: 4 iterations here.
+TYPED_TEST(SolidStepTest, CgNewtonTakesANearlyLinearStepInTwoIterations) {
+  constexpr int dim = TypeParam::value;
+  std::mt19937 rng(23 + dim);
+  const Real dt = 1e-3;
+  const Block<dim> block = clamped_block_under_gravity<dim>(4, rng, dt);
+  const auto material = material_of<FixedCorotated<dim>>(1e7, 0.3);
+  ProjectedNewtonOptions options = newton_options<dim>();
+  options.direct = false;
+  std::vector<Vec<dim>> velocity;
+  const NewtonResult result = solid_step(block.grid, block.particles, material, block.nodes, dt, options, velocity);
+  std::cout << "[          ] " << result.summary() << '\n';
+  ASSERT_TRUE(result.converged) << result.summary();
+  EXPECT_GT(result.tolerance, options.cg_relative_tolerance * result.gradient_norms.front()) << "not the momentum stop";
+  EXPECT_LE(result.iterations, 2) << result.summary();
+  EXPECT_EQ(result.cg_unfinished, 0) << result.summary();
 }
 
 // A neo-Hookean block collapsing along the first axis so fast that v^n itself would invert
@@ -490,8 +520,9 @@ TEST(ProjectedNewton, LineSearchRejectsNonFiniteTrials) {
 // that the energy cannot tell the iterates apart (its round-off, 1e-8, exceeds f^2), and
 // g = x + f sign(x): the Newton step of the smooth part overshoots to -f sign(x) and the
 // iterates flip between +-f with |g| = 2f, as the elastic gate's Newton did at dt = 1e-4 s.
-// Just above the tolerance (within stall_factor) that counts as converged, flagged as the
-// round-off floor; far above it does not.
+// Just above the direct stop (within stall_factor) that counts as converged, flagged as the
+// round-off floor, with either direction: a CG stop far below the floor does not make the
+// step fail. Far above the direct stop it does not count.
 struct FlooredPotential {
   using SparseMatrix = Eigen::SparseMatrix<Real, Eigen::RowMajor, int>;
   Real floor = 1.5e-9;
@@ -510,18 +541,23 @@ struct FlooredPotential {
 };
 
 TEST(ProjectedNewton, StopsAtTheRoundoffFloorJustAboveTheTolerance) {
-  ProjectedNewtonOptions options;
-  options.absolute_tolerance = 0;
-  options.relative_tolerance = 2.4e-9;  // |g_0| = 1: tolerance 2.4e-9, |g| stuck at 3e-9
-  Vector x = Vector::Constant(1, 1 - 1.5e-9);
-  const NewtonResult near = minimize_projected_newton(FlooredPotential{}, x, options);
-  EXPECT_TRUE(near.converged) << near.summary();
-  EXPECT_TRUE(near.roundoff_floor);
-  EXPECT_LT(near.iterations, 5);
-  options.relative_tolerance = 1e-12;  // the floor is 3000 times the tolerance: not converged
-  x = Vector::Constant(1, 1 - 1.5e-9);
-  const NewtonResult far = minimize_projected_newton(FlooredPotential{}, x, options);
-  EXPECT_FALSE(far.converged) << far.summary();
+  for (const bool direct : {true, false}) {
+    SCOPED_TRACE(direct ? "direct" : "CG");
+    ProjectedNewtonOptions options;
+    options.direct = direct;
+    options.absolute_tolerance = 0;
+    options.relative_tolerance = 2.4e-9;     // |g_0| = 1: direct stop 2.4e-9, |g| stuck at 3e-9
+    options.cg_relative_tolerance = 1e-11;   // the floor is 300 times the CG stop
+    Vector x = Vector::Constant(1, 1 - 1.5e-9);
+    const NewtonResult near = minimize_projected_newton(FlooredPotential{}, x, options);
+    EXPECT_TRUE(near.converged) << near.summary();
+    EXPECT_TRUE(near.roundoff_floor);
+    EXPECT_LT(near.iterations, 5);
+    options.relative_tolerance = 1e-12;  // the floor is 3000 times the direct stop (below the CG stop here): not converged
+    x = Vector::Constant(1, 1 - 1.5e-9);
+    const NewtonResult far = minimize_projected_newton(FlooredPotential{}, x, options);
+    EXPECT_FALSE(far.converged) << far.summary();
+  }
 }
 
 }  // namespace
