@@ -16,34 +16,39 @@
 
 namespace iqmpm {
 
-// Calls f(cell, layout index) for the 2^dim dual cells nearest a point: their centres
-// bracket it, shifted inside the domain at walls.
+// The 2^dim dual cells nearest x: their centres bracket it, shifted inside the domain at
+// walls. Returns the lowest cell of the block and x's position from that cell's centre in
+// cells (in [0, 1] inside the bracket, beyond it between a wall and the first centres).
+template <int dim>
+IVec<dim> cells_around(const Grid<dim>& grid, const Vec<dim>& x, Vec<dim>& from_first_centre) {
+  const Vec<dim> xi = grid.to_cells(x) - Vec<dim>::Constant(Real(0.5));
+  IVec<dim> first;
+  for (int a = 0; a < dim; ++a) {
+    first[a] = std::min(std::max(int(std::floor(xi[a])), 0), grid.cells[a] - 2);
+    from_first_centre[a] = xi[a] - first[a];
+  }
+  return first;
+}
+
+// Calls f(cell, layout index) for the 2^dim dual cells nearest a point (cells_around).
 template <int dim, class F>
 void for_each_cell_around(const Grid<dim>& grid, const std::vector<Real>& point, F&& f) {
-  Vec<dim> x;
+  Vec<dim> x, t;
   for (int a = 0; a < dim; ++a) x[a] = point[a];
   const auto cells = grid.dual_cells();
-  const Vec<dim> xi = grid.to_cells(x);
-  IVec<dim> first;
-  for (int a = 0; a < dim; ++a)
-    first[a] = std::min(std::max(int(std::floor(xi[a] - Real(0.5))), 0), grid.cells[a] - 2);
+  const IVec<dim> first = cells_around(grid, x, t);
   for_each_offset<dim, 2>([&](const IVec<dim>& offset) { f(IVec<dim>(first + offset), cells.index(first + offset)); });
 }
 
-// The pressure at x interpolated multilinearly between the centres of the 2^dim dual cells
-// around it (for_each_cell_around's block; linear extrapolation between a wall and the
-// first centres). Exact for a pressure linear in x, such as hydrostatic water below its
-// top cell layer; empty cells count as 0.
+// The pressure at x interpolated multilinearly between the centres of the cells around it
+// (cells_around; linear extrapolation between a wall and the first centres). Exact for a
+// pressure linear in x, such as hydrostatic water below its top cell layer; empty cells
+// count as 0.
 template <int dim, class Pressure>
 Real interpolated_pressure(const Grid<dim>& grid, const Vec<dim>& x, Pressure&& pressure) {
   const auto cells = grid.dual_cells();
-  const Vec<dim> xi = grid.to_cells(x) - Vec<dim>::Constant(Real(0.5));
-  IVec<dim> first;
   Vec<dim> t;
-  for (int a = 0; a < dim; ++a) {
-    first[a] = std::min(std::max(int(std::floor(xi[a])), 0), grid.cells[a] - 2);
-    t[a] = xi[a] - first[a];
-  }
+  const IVec<dim> first = cells_around(grid, x, t);
   Real sum = 0;
   for_each_offset<dim, 2>([&](const IVec<dim>& offset) {
     Real weight = 1;
