@@ -201,7 +201,8 @@ def _ours_series(run: Run, spec: MetricSpec) -> Series:
 
 
 def reduce_series_u(t: np.ndarray, y: np.ndarray, reducer: str, tail: float = 0.5,
-                    window: float = 0.0, until: float | None = None) -> tuple[float, float]:
+                    window: float = 0.0, until: float | None = None,
+                    start: float | None = None) -> tuple[float, float]:
     """``reduce_series`` and the value's expanded uncertainty (k = 2; NaN for reducers
     without one: only the fitted periods, frequencies and decay ratios have one)."""
     if reducer == "decay":
@@ -218,11 +219,12 @@ def reduce_series_u(t: np.ndarray, y: np.ndarray, reducer: str, tail: float = 0.
                 return math.nan, math.nan
             return 1.0 / fit.value, fit.uncertainty / fit.value**2
         return fit.value, fit.uncertainty
-    return reduce_series(t, y, reducer, tail, window, until), math.nan
+    return reduce_series(t, y, reducer, tail, window, until, start), math.nan
 
 
 def reduce_series(t: np.ndarray, y: np.ndarray, reducer: str, tail: float = 0.5,
-                  window: float = 0.0, until: float | None = None) -> float:
+                  window: float = 0.0, until: float | None = None,
+                  start: float | None = None) -> float:
     if reducer in ("early_period", "period", "frequency", "decay"):
         return reduce_series_u(t, y, reducer, tail, window, until)[0]
     s = Series.of(t, y)
@@ -230,10 +232,14 @@ def reduce_series(t: np.ndarray, y: np.ndarray, reducer: str, tail: float = 0.5,
         return math.nan
     if reducer == "window_peak":
         return window_peak(s.t, s.y, window)
-    if reducer == "integral":
+    if reducer in ("integral", "window_mean"):
+        begin = s.t[0] if start is None else max(start, s.t[0])
         end = s.t[-1] if until is None else min(until, s.t[-1])
-        fine = np.linspace(s.t[0], end, max(2, int(round((end - s.t[0]) / 1e-4)) + 1))
-        return float(np.trapz(np.interp(fine, s.t, s.y), fine))
+        if reducer == "window_mean" and not end > begin:
+            return math.nan  # the run does not reach the window
+        fine = np.linspace(begin, end, max(2, int(round((end - begin) / 1e-4)) + 1))
+        integral = float(np.trapz(np.interp(fine, s.t, s.y), fine))
+        return integral if reducer == "integral" else integral / (end - begin)
     if reducer == "first":
         later = np.nonzero(s.t > 0)[0]
         return float(s.y[later[0]] if len(later) else s.y[0])
@@ -513,7 +519,8 @@ def scalar_value_u(run: Run, spec: ScalarSpec) -> tuple[float, float] | None:
         y = y - run.metrics.columns[spec.subtract_column] + spec.offset
     if spec.use_abs:
         y = np.abs(y)
-    return reduce_series_u(run.metrics.t, y, spec.reducer, spec.tail, spec.window, spec.until)
+    return reduce_series_u(run.metrics.t, y, spec.reducer, spec.tail, spec.window, spec.until,
+                           spec.start)
 
 
 # --------------------------------------------------------------------------- helpers

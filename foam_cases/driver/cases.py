@@ -83,8 +83,15 @@ def _volume_scalars(cols: dict[str, np.ndarray]) -> dict[str, object]:
             "volume_drift": float((v[-1] - v[0]) / v[0])}
 
 
+# The right wall's pressure probes above pressure_right (0.01 m), in the order of the
+# controlDict's probeLocations.
+DAM_WALL_PROBES = (("pressure_right_3cm", 1), ("pressure_right_6cm", 2), ("pressure_right_10cm", 3))
+
+
 def dam_break_extract(case: Path, p: Params, log: Path) -> Extracted:
-    t, cols = m.merge(_tank_series(case, p))
+    series = _tank_series(case, p)
+    series.update({name: m.probe(case, "wallProbes", "p", index) for name, index in DAM_WALL_PROBES})
+    t, cols = m.merge(series)
     sc = _volume_scalars(cols)
     sc.update(koshizuka_oka_error(t, cols.get("front_x")))
     return Extracted(t, cols, sc)

@@ -196,6 +196,30 @@ def test_frequency_reducer_has_an_uncertainty():
     assert u < 1e-3
 
 
+def test_window_mean_is_the_time_average_over_its_window():
+    # p = 1000 + 500 sin(2 pi 40 t) sampled unevenly (a solver's adaptive steps): over
+    # 0.35-0.5 s the sine's six whole periods average to zero, leaving 1000 exactly up to
+    # the trapezoid rule's error; a constant series reads its constant, a run that ends
+    # before the window reads NaN.
+    rng = np.random.default_rng(3)
+    t = np.sort(np.concatenate([[0.0, 0.6], rng.uniform(0.0, 0.6, 6000)]))
+    p = 1000 + 500 * np.sin(2 * np.pi * 40 * t)
+    spec = next(s for s in lookup("dam_break").scalars if s.name == "pressure_right_3cm_mean_0.35-0.5s")
+    run = Run(Path("synthetic"), "iqmpm", {"status": "ok"},
+              Metrics(Path("synthetic"), t, {"pressure_right_3cm": p}))
+    value, _ = scalar_value_u(run, spec)
+    assert value == pytest.approx(1000, abs=1.0)
+    # the window and nothing else: a step outside it does not count
+    stepped = np.where(t < 0.3, 9e9, 250.0)
+    run = Run(Path("synthetic"), "iqmpm", {"status": "ok"},
+              Metrics(Path("synthetic"), t, {"pressure_right_3cm": stepped}))
+    assert scalar_value_u(run, spec)[0] == pytest.approx(250.0, rel=1e-3)
+    short = t < 0.3
+    run = Run(Path("synthetic"), "iqmpm", {"status": "ok"},
+              Metrics(Path("synthetic"), t[short], {"pressure_right_3cm": p[short]}))
+    assert math.isnan(scalar_value_u(run, spec)[0])
+
+
 # ----------------------------------------------------------------------------- zero references
 
 def test_zero_reference_scalar_reports_an_absolute_error():
