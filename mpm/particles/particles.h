@@ -55,7 +55,9 @@ struct Particles {
     std::vector<T> sorted;
     if (previous) sorted.swap(*previous);
     sorted.resize(values.size());
-    for (std::size_t i = 0; i < values.size(); ++i) sorted[i] = values[order[i]];
+    const int n = int(values.size());
+#pragma omp parallel for schedule(static)
+    for (int i = 0; i < n; ++i) sorted[i] = values[order[i]];
     values.swap(sorted);
     if (previous) previous->swap(sorted);
   }
@@ -105,10 +107,9 @@ ParticleBins<dim> sort_particles_by_cell(const Grid<dim>& grid, Particles<dim>& 
   const int n = int(particles.size());
   std::vector<int> cell_of(n);
   bins.cell_start.assign(cells + 1, 0);
-  for (int p = 0; p < n; ++p) {
-    cell_of[p] = bins.layout.index(dual_cell_of<dim>(grid.to_cells(particles.position[p])));
-    ++bins.cell_start[cell_of[p] + 1];
-  }
+#pragma omp parallel for schedule(static)
+  for (int p = 0; p < n; ++p) cell_of[p] = bins.layout.index(dual_cell_of<dim>(grid.to_cells(particles.position[p])));
+  for (int p = 0; p < n; ++p) ++bins.cell_start[cell_of[p] + 1];
   std::partial_sum(bins.cell_start.begin(), bins.cell_start.end(), bins.cell_start.begin());
   std::vector<int> next(bins.cell_start.begin(), bins.cell_start.end() - 1);
   std::vector<int> order(n);

@@ -344,6 +344,7 @@ class SolidIncrementalPotential {
     F_constant_.resize(n);
     b_.resize(std::size_t(n) * kStencil);
     stencil_free_.resize(std::size_t(n) * kStencil);
+#pragma omp parallel for schedule(static)  // each particle writes its own entries
     for (int p = 0; p < n; ++p) {
       const Mat<dim>& Fn = particles.deformation_gradient[p];
       const auto stencil = quadratic_stencil<dim>(grid.to_cells(particles.position[p]), grid.dx);
