@@ -22,7 +22,9 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <numeric>
 #include <string>
@@ -78,23 +80,45 @@ std::vector<int> pieces_by_body(const std::vector<Vec<dim>>& position, const std
     lo = lo.cwiseMin(bin[p]);
     hi = hi.cwiseMax(bin[p]);
   }
-  const GridLayout<dim> bins(lo, hi - lo + IVec<dim>::Ones());
+  // Bin keys in 64 bits, first axis outermost: bodies far apart span many empty bins.
+  std::array<std::int64_t, dim> stride{};
+  std::int64_t bin_count = 1;
+  for (int a = dim - 1; a >= 0; --a) {
+    stride[a] = bin_count;
+    bin_count *= hi[a] - lo[a] + 1;
+  }
+  auto key_of = [&](const IVec<dim>& b) {
+    std::int64_t k = 0;
+    for (int a = 0; a < dim; ++a) k += (b[a] - lo[a]) * stride[a];
+    return k;
+  };
+  std::vector<std::int64_t> key(n);
+  for (int p = 0; p < n; ++p) key[p] = key_of(bin[p]);
   // Particles by (bin, body); group g holds order[group_start[g] .. group_start[g + 1]).
   std::vector<int> order(n);
   std::iota(order.begin(), order.end(), 0);
-  std::vector<int> key(n);
-  for (int p = 0; p < n; ++p) key[p] = bins.index(bin[p]);
   std::sort(order.begin(), order.end(), [&](int p, int q) {
     return key[p] != key[q] ? key[p] < key[q] : body_of[p] != body_of[q] ? body_of[p] < body_of[q] : p < q;
   });
-  std::vector<int> group_start, bin_first_group(bins.size() + 1, -1);
+  std::vector<int> group_start;
+  std::vector<std::int64_t> group_key;
   for (int i = 0; i < n; ++i)
     if (i == 0 || key[order[i]] != key[order[i - 1]] || body_of[order[i]] != body_of[order[i - 1]]) {
-      if (bin_first_group[key[order[i]]] < 0) bin_first_group[key[order[i]]] = int(group_start.size());
       group_start.push_back(i);
+      group_key.push_back(key[order[i]]);
     }
   const int groups = int(group_start.size());
   group_start.push_back(n);
+  // The first group of a bin: a table over the bins where they are few against the
+  // particles (compact bodies), a binary search over the groups' keys otherwise.
+  const bool table = bin_count <= 8 * std::int64_t(n) + 4096;
+  std::vector<int> first_group(table ? bin_count : 0, -1);
+  for (int g = groups - 1; g >= 0 && table; --g) first_group[group_key[g]] = g;
+  auto first_group_of = [&](std::int64_t k) {
+    if (table) return first_group[k];
+    const auto it = std::lower_bound(group_key.begin(), group_key.end(), k);
+    return it != group_key.end() && *it == k ? int(it - group_key.begin()) : -1;
+  };
   std::vector<int> parent(groups);
   std::iota(parent.begin(), parent.end(), 0);
   auto root = [&](int g) {
@@ -113,11 +137,12 @@ std::vector<int> pieces_by_body(const std::vector<Vec<dim>>& position, const std
     const int body = body_of[first];
     for_each_offset<dim, 2 * reach + 1>([&](const IVec<dim>& offset) {
       const IVec<dim> b = bin[first] + offset - IVec<dim>::Constant(reach);
-      if (!bins.contains(b)) return;
-      const int k = bins.index(b);
-      if (k < key[first]) return;  // each pair of bins once (and a bin with itself)
-      for (int h = bin_first_group[k]; h >= 0 && h < groups && key[order[group_start[h]]] == k; ++h) {
-        if (h <= g || body_of[order[group_start[h]]] != body) continue;
+      for (int a = 0; a < dim; ++a)
+        if (b[a] < lo[a] || b[a] > hi[a]) return;
+      const std::int64_t k = key_of(b);
+      if (k <= group_key[g]) return;  // each pair of bins once; a bin's groups are of different bodies
+      for (int h = first_group_of(k); h >= 0 && h < groups && group_key[h] == k; ++h) {
+        if (body_of[order[group_start[h]]] != body) continue;
         const int rg = root(g), rh = root(h);
         if (rg != rh && linked(g, h)) parent[rh] = rg;
       }
