@@ -477,7 +477,7 @@ def _floating_cube(name: str, title: str, centre: float, min_timeout: float = 0.
 
 
 _register(_floating_cube("floating_block_3d", "Floating cube (3-D)", 0.5028))
-# About 20 min on two threads at dt_max 0.625 ms (docs/benchmarks.md); one thread is slower.
+# About 17 min on two threads at dt_max 0.625 ms (docs/benchmarks.md); one thread is slower.
 _register(_floating_cube("floating_block_3d_fine", "Floating cube (3-D), dx 0.025, 0.6 m tank, dt 0.625 ms", 0.5078,
                          min_timeout=4 * 3600))
 
