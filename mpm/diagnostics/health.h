@@ -62,8 +62,7 @@ Real mechanical_energy(const Simulation<dim>& sim) {
 // group is joined as a whole; two groups of a body within reach (2 bins along each axis)
 // are joined when some pair of their particles is closer than link, and the pair search
 // stops at the first. The pieces are those of the particle graph, at one root comparison
-// for most pairs of groups (on the fine cube, a third of the cost of bins of side link
-// with a comparison per pair of particles).
+// for most pairs of groups instead of a distance per pair of particles.
 template <int dim>
 std::vector<int> pieces_by_body(const std::vector<Vec<dim>>& position, const std::vector<int>& body_of, int bodies, Real link) {
   std::vector<int> pieces(bodies, 0);
@@ -80,7 +79,7 @@ std::vector<int> pieces_by_body(const std::vector<Vec<dim>>& position, const std
     lo = lo.cwiseMin(bin[p]);
     hi = hi.cwiseMax(bin[p]);
   }
-  // Bin keys in 64 bits, first axis outermost: bodies far apart span many empty bins.
+  // Bin keys in 64 bits, first axis outermost (bodies far apart span many empty bins).
   std::array<std::int64_t, dim> stride{};
   std::int64_t bin_count = 1;
   for (int a = dim - 1; a >= 0; --a) {
@@ -109,13 +108,8 @@ std::vector<int> pieces_by_body(const std::vector<Vec<dim>>& position, const std
     }
   const int groups = int(group_start.size());
   group_start.push_back(n);
-  // The first group of a bin: a table over the bins where they are few against the
-  // particles (compact bodies), a binary search over the groups' keys otherwise.
-  const bool table = bin_count <= 8 * std::int64_t(n) + 4096;
-  std::vector<int> first_group(table ? bin_count : 0, -1);
-  for (int g = groups - 1; g >= 0 && table; --g) first_group[group_key[g]] = g;
+  // The first group of a bin, by a search over the groups' keys (no table over empty space).
   auto first_group_of = [&](std::int64_t k) {
-    if (table) return first_group[k];
     const auto it = std::lower_bound(group_key.begin(), group_key.end(), k);
     return it != group_key.end() && *it == k ? int(it - group_key.begin()) : -1;
   };

@@ -48,7 +48,7 @@ TYPED_TEST(HealthTest, BodyPiecesAreTheComponentsOfTheLinkGraph) {
     const int clusters = 6 + int(seed % 5);
     for (int c = 0; c < clusters; ++c) {
       Vec<dim> centre;
-      // Odd seeds: clusters far apart (empty bins by the billion: the search by key).
+      // Odd seeds: clusters far apart (empty bins by the billion between them).
       for (int a = 0; a < dim; ++a) centre[a] = -0.05 + (seed % 2 ? 40.0 : 0.25) * uniform(rng);
       const Real spread = 0.01 + 0.04 * uniform(rng);
       const int count = 5 + int(40 * uniform(rng));
