@@ -84,9 +84,9 @@ class ScalarSpec:
     fitted over the first two periods from the release, with its uncertainty), "window_peak"
     (the largest mean over a sliding window of ``window`` seconds, e.g. a force without its
     single-step spikes), "integral" (the time integral from ``start`` up to ``until`` seconds,
-    or over the run: an impulse), "window_mean" (the time average from ``start`` to ``until``). With ``subtract_column`` the series reduced
-    is ``column - subtract_column + offset`` (e.g. a draft: water level - centre height + half
-    the body's height).
+    or over the run: an impulse), "window_mean" (the time average from ``start`` to
+    ``until``). With ``subtract_column`` the series reduced is ``column - subtract_column +
+    offset`` (e.g. a draft: water level - centre height + half the body's height).
     """
 
     name: str
