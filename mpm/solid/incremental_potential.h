@@ -33,6 +33,7 @@
 #include "grid/grid.h"
 #include "grid/kernels.h"
 #include "particles/particles.h"
+#include "solid/hessian_pattern.h"
 
 namespace iqmpm {
 
@@ -178,19 +179,21 @@ class SolidIncrementalPotential {
   }
 
   SparseMatrix hessian(const Vector& v, bool project_to_psd) const {
-    if (pattern_row_start_.empty()) build_hessian_pattern();  // only an assembled Hessian needs it
+    if (pattern_.empty()) pattern_.build(layout_, free_node_, free_number_, stencil_free_);  // only an assembled Hessian needs it
     const int n = particle_count();
     const std::vector<TensorMat<dim>> stiffness = particle_stiffness(v, project_to_psd);
 
     SparseMatrix H(unknowns(), unknowns());
-    H.resizeNonZeros(int(pattern_columns_.size()));
-    std::copy(pattern_row_start_.begin(), pattern_row_start_.end(), H.outerIndexPtr());
-    std::copy(pattern_columns_.begin(), pattern_columns_.end(), H.innerIndexPtr());
+    const std::vector<int>& row_start = pattern_.row_start();
+    const std::vector<int>& columns = pattern_.columns();
+    H.resizeNonZeros(int(columns.size()));
+    std::copy(row_start.begin(), row_start.end(), H.outerIndexPtr());
+    std::copy(columns.begin(), columns.end(), H.innerIndexPtr());
     Real* values = H.valuePtr();
-    std::fill(values, values + pattern_columns_.size(), Real(0));
+    std::fill(values, values + columns.size(), Real(0));
 
     for (int r = 0; r < int(free_node_.size()); ++r)
-      for (int a = 0; a < dim; ++a) values[entry(r, slot(r, kCentreCode), a, a)] += mass_[dim * r + a];
+      for (int a = 0; a < dim; ++a) values[pattern_.entry(r, pattern_.slot(r, HessianPattern<dim>::kCentreCode), a, a)] += mass_[dim * r + a];
 
     // Block (i, j) of particle p: H_(i a),(j b) = sum_cd A_(c dim + a),(d dim + b) b_i[c] b_j[d],
     // A = dt^2 V0 dP/dF, since dF/dv_(i a) = dt e_a b_i^T has vec entries b_i[c] at c dim + a.
@@ -211,18 +214,18 @@ class SolidIncrementalPotential {
           for (int d = 0; d < dim; ++d) block.noalias() += bj[d] * X.template middleCols<dim>(d * dim);
           if (ej == ei) {
             const Mat<dim> symmetric = Real(0.5) * (block + block.transpose());
-            add_block(values, ri, slot(ri, pair_code_[ei][ej]), symmetric);
+            pattern_.add_block(values, ri, pattern_.slot(ri, pattern_.pair_code(ei, ej)), symmetric);
           } else {
-            add_block(values, ri, slot(ri, pair_code_[ei][ej]), block);
-            add_block(values, rj, slot(rj, pair_code_[ej][ei]), block.transpose());
+            pattern_.add_block(values, ri, pattern_.slot(ri, pattern_.pair_code(ei, ej)), block);
+            pattern_.add_block(values, rj, pattern_.slot(rj, pattern_.pair_code(ej, ei)), block.transpose());
           }
         }
       }
     }
     if (!fixed_entries_.empty())
       for (int row = 0; row < unknowns(); ++row)
-        for (int k = pattern_row_start_[row]; k < pattern_row_start_[row + 1]; ++k) {
-          const int column = pattern_columns_[k];
+        for (int k = row_start[row]; k < row_start[row + 1]; ++k) {
+          const int column = columns[k];
           if (fixed_[row] || fixed_[column]) values[k] = row == column ? mass_[row] : 0;
         }
     return H;
@@ -291,9 +294,7 @@ class SolidIncrementalPotential {
   }
 
  private:
-  static constexpr int kStencil = dim == 2 ? 9 : 27;    // 3^dim nodes of N2
-  static constexpr int kNeighbours = dim == 2 ? 25 : 125;  // 5^dim node offsets within reach
-  static constexpr int kCentreCode = dim == 2 ? 12 : 62;   // offset 0 in the 5^dim code
+  static constexpr int kStencil = HessianPattern<dim>::kStencil;  // 3^dim nodes of N2
 
   // The SVDs of the last energy evaluation, valid for that velocity only.
   bool svd_kept_for(const Vector& v) const { return svd_velocity_.size() == v.size() && svd_velocity_ == v; }
@@ -389,74 +390,6 @@ class SolidIncrementalPotential {
     }
   }
 
-  // Node pairs sharing a particle -> CSR pattern of the scalar Hessian. Row (r, a) lists,
-  // for every neighbour slot s of node r (in increasing free number), columns (c_s, 0..dim-1).
-  void build_hessian_pattern() const {
-    // 5^dim code of offset(j) - offset(i) + 2 for two stencil entries.
-    IVec<dim> offsets[kStencil];
-    {
-      int e = 0;
-      for_each_offset<dim, 3>([&](const IVec<dim>& o) { offsets[e++] = o; });
-    }
-    for (int ei = 0; ei < kStencil; ++ei)
-      for (int ej = 0; ej < kStencil; ++ej) {
-        int code = 0;
-        for (int a = 0; a < dim; ++a) code = code * 5 + (offsets[ej][a] - offsets[ei][a] + 2);
-        pair_code_[ei][ej] = code;
-      }
-
-    const int count = int(free_node_.size());
-    slot_.assign(std::size_t(count) * kNeighbours, -1);
-    for (int p = 0; p < particle_count(); ++p)
-      for (int ei = 0; ei < kStencil; ++ei) {
-        const int ri = stencil_free_[p * kStencil + ei];
-        if (ri < 0) continue;
-        for (int ej = 0; ej < kStencil; ++ej)
-          if (stencil_free_[p * kStencil + ej] >= 0) slot_[std::size_t(ri) * kNeighbours + pair_code_[ei][ej]] = 0;
-      }
-    // Every free node has mass, hence a particle, hence its own diagonal block.
-    neighbour_count_.assign(count, 0);
-    pattern_row_start_.assign(dim * count + 1, 0);
-    pattern_columns_.clear();
-    IVec<dim> delta_of_code[kNeighbours];
-    {
-      int code = 0;
-      for_each_offset<dim, 5>([&](const IVec<dim>& o) { delta_of_code[code++] = o - IVec<dim>::Constant(2); });
-    }
-    for (int r = 0; r < count; ++r) {
-      assert(slot_[std::size_t(r) * kNeighbours + kCentreCode] == 0);
-      const IVec<dim> node = layout_.multi_index(free_node_[r]);
-      std::vector<int> columns;
-      // Codes increase with the dense index of the neighbour (first axis outermost), and
-      // free numbers follow the dense order, so the columns come out sorted.
-      for (int code = 0; code < kNeighbours; ++code) {
-        int& s = slot_[std::size_t(r) * kNeighbours + code];
-        if (s < 0) continue;
-        s = neighbour_count_[r]++;
-        columns.push_back(free_number_[layout_.index(node + delta_of_code[code])]);
-      }
-      for (int a = 0; a < dim; ++a) {
-        for (int c : columns)
-          for (int b = 0; b < dim; ++b) pattern_columns_.push_back(dim * c + b);
-        pattern_row_start_[dim * r + a + 1] = int(pattern_columns_.size());
-      }
-    }
-  }
-
-  int slot(int r, int code) const {
-    const int s = slot_[std::size_t(r) * kNeighbours + code];
-    assert(s >= 0);
-    return s;
-  }
-  // Value index of H_(r a),(c_s b).
-  int entry(int r, int s, int a, int b) const {
-    return pattern_row_start_[dim * r + a] + s * dim + b;
-  }
-  void add_block(Real* values, int r, int s, const Mat<dim>& block) const {
-    for (int a = 0; a < dim; ++a)
-      for (int b = 0; b < dim; ++b) values[entry(r, s, a, b)] += block(a, b);
-  }
-
   GridLayout<dim> layout_;
   Real dt_;
   Real dx_;
@@ -482,11 +415,7 @@ class SolidIncrementalPotential {
   std::vector<int> node_entry_start_, node_entries_;  // free node -> its entries p * kStencil + e
 
   // The assembled Hessian's pattern, built by the first hessian() call (CG Newton needs none).
-  mutable int pair_code_[kStencil][kStencil];
-  mutable std::vector<int> slot_;             // r * kNeighbours + code -> neighbour slot or -1
-  mutable std::vector<int> neighbour_count_;
-  mutable std::vector<int> pattern_row_start_;
-  mutable std::vector<int> pattern_columns_;
+  mutable HessianPattern<dim> pattern_;
 };
 
 }  // namespace iqmpm
