@@ -240,6 +240,11 @@ def reduce_series(t: np.ndarray, y: np.ndarray, reducer: str, tail: float = 0.5,
         fine = np.linspace(begin, end, max(2, int(round((end - begin) / 1e-4)) + 1))
         integral = float(np.trapz(np.interp(fine, s.t, s.y), fine))
         return integral if reducer == "integral" else integral / (end - begin)
+    if reducer == "largest_change":
+        # y / y(first sample) - 1 farthest from zero over the run, with its sign: a drift
+        # that recovers by the end still counts.
+        change = s.y / s.y[0] - 1.0
+        return float(change[np.argmax(np.abs(change))])
     if reducer == "first":
         later = np.nonzero(s.t > 0)[0]
         return float(s.y[later[0]] if len(later) else s.y[0])

@@ -3,9 +3,15 @@
 // makes the grid velocity divergence-free, not the particle flow. One extra solve with the
 // same operators finds the smallest (mass-weighted) displacement field d of the corners with
 //   integral over cell i of div d = relaxation (phi_i - 1) dx^dim,  B d = 0,
-// phi_i the particles' volume fraction in cell i; cells next to empty space are only
-// expanded (phi > 1), never compressed, since they may be partly empty. Particles then
-// move by the N1 interpolation of d. The wall rows keep them off the walls.
+// phi_i the particles' volume fraction in cell i, spread with multilinear weights
+// (smoothed_particle_volume_per_cell) and, in interior cells, averaged over the interior
+// cells around with weights 1-2-1 per axis; cells next to empty space are only expanded
+// (phi > 1), never compressed, since they may be partly empty. Particles then move by the
+// N1 interpolation of d. The wall rows keep them off the walls.
+// Why both filters: D cannot produce a checkerboard of cell volumes (Q1-P0), so the
+// smallest d asked for one is as large as A is nearly singular; a count per cell, which
+// jumps as particles cross faces, feeds such patterns back every step. Without them the
+// correction ran away at a/64 within ten steps (method.md#position-correction).
 // With solids, phi counts the solid particles' current volume too (the reference code
 // does the same), so water crowded against or into a body is spread back out, and a
 // fluid cell's face towards a cell that is at least half solid and holds no fluid gets a
@@ -30,16 +36,37 @@ namespace iqmpm {
 
 // Per pressure row of `ops`: the target of G^fT d = -integral of div d over the cell,
 // -relaxation (phi - 1) dx^dim, phi the volume in the cell (`volume`, per dual cell) over
-// the cell's. Cells next to empty space may be partly empty: only expanded, never compressed.
+// the cell's. In an interior cell phi - 1 is the 1-2-1 weighted mean over the interior
+// cells of its 3^dim block, which has no checkerboard part; cells next to empty space may
+// be partly empty: their own phi - 1, only expanded, never compressed.
 template <int dim>
 std::vector<Real> position_correction_targets(const Grid<dim>& grid, const FluidOperators<dim>& ops,
                                               const std::vector<Real>& volume, Real relaxation) {
   const Real cell_volume = grid.cell_volume();
-  std::vector<Real> target(ops.pressure_unknowns(), 0);
-  for (int i = 0; i < ops.pressure_unknowns(); ++i) {
-    Real excess = volume[ops.cell_of_pressure[i]] / cell_volume - 1;
-    if (!ops.interior[i]) excess = std::max(excess, Real(0));
-    target[i] = -relaxation * excess * cell_volume;
+  const int np = ops.pressure_unknowns();
+  std::vector<Real> excess(np);
+  for (int i = 0; i < np; ++i) excess[i] = volume[ops.cell_of_pressure[i]] / cell_volume - 1;
+  const GridLayout<dim> cells = grid.dual_cells();
+  std::vector<Real> target(np, 0);
+  for (int i = 0; i < np; ++i) {
+    Real e = 0;
+    if (ops.interior[i]) {
+      const IVec<dim> cell = cells.multi_index(ops.cell_of_pressure[i]);
+      Real weight_sum = 0;
+      for_each_offset<dim, 3>([&](const IVec<dim>& o) {
+        const IVec<dim> neighbour = cell + o - IVec<dim>::Ones();
+        if (!cells.contains(neighbour)) return;
+        const int j = ops.pressure_of_cell[cells.index(neighbour)];
+        if (j < 0 || !ops.interior[j]) return;
+        Real w = 1;
+        for (int a = 0; a < dim; ++a) w *= o[a] == 1 ? 2 : 1;
+        e += w * excess[j], weight_sum += w;
+      });
+      e /= weight_sum;
+    } else {
+      e = std::max(excess[i], Real(0));
+    }
+    target[i] = -relaxation * e * cell_volume;
   }
   return target;
 }
@@ -108,8 +135,11 @@ void correct_fluid_positions(const Grid<dim>& grid, Particles<dim>& fluid, const
         }
     }
   }
-  std::vector<Real> volume = particle_volume_per_cell(grid, fluid, false);
-  for (std::size_t k = 0; k < solid_volume.size(); ++k) volume[k] += solid_volume[k];
+  std::vector<Real> volume = smoothed_particle_volume_per_cell(grid, fluid, false);
+  if (has_solids) {
+    const std::vector<Real> smoothed_solid_volume = smoothed_particle_volume_per_cell(grid, solid, true);
+    for (std::size_t k = 0; k < volume.size(); ++k) volume[k] += smoothed_solid_volume[k];
+  }
   std::vector<Real> target = position_correction_targets(grid, ops, volume, relaxation);
   target.resize(np + ops.wall_faces.size() + solid_faces, 0);
   Eigen::VectorXd inverse_mass(nv * dim);

@@ -271,3 +271,18 @@ def test_expected_criterion_on_a_zero_quantity_needs_an_absolute_margin():
         parse_check(Path("expected.json"), bench, 0, raw)
     raw["margin"] = {"absolute": 0.02}
     assert parse_check(Path("expected.json"), bench, 0, raw).margin.kind == "absolute"
+
+
+def test_largest_change_is_the_farthest_excursion_with_its_sign():
+    # A volume that dips by 3 % and recovers to -0.5 % reads -0.03, not the end's -0.005; a
+    # rise of 1 % beside it does not hide the dip; a constant series reads 0. The same
+    # spec on both dam breaks.
+    t = np.linspace(0.0, 1.0, 1001)
+    dip = 0.04 * (1 - 0.03 * np.exp(-((t - 0.3) / 0.05) ** 2) + 0.01 * np.exp(-((t - 0.8) / 0.05) ** 2)
+                  - 0.005 * (t > 0.9))
+    for benchmark in ("dam_break", "dam_break_obstacle"):
+        spec = next(s for s in lookup(benchmark).scalars if s.name == "volume_largest_change")
+        run = Run(Path("synthetic"), "iqmpm", {"status": "ok"}, Metrics(Path("synthetic"), t, {"volume": dip}))
+        assert scalar_value_u(run, spec)[0] == pytest.approx(-0.03, rel=1e-3)
+        flat = Run(Path("synthetic"), "iqmpm", {"status": "ok"}, Metrics(Path("synthetic"), t, {"volume": np.full_like(t, 0.04)}))
+        assert scalar_value_u(flat, spec)[0] == 0.0
