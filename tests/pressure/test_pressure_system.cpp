@@ -155,6 +155,37 @@ TYPED_TEST(PressureSystemTest, TransferredInertiaBalancesTheParticlesMomentumWit
 
 // fluid.inertia = auto resolves to transfer in a scene without solids and to quadrature
 // in one with them (docs/method.md#fluid-inertia).
+// add_to_diagonal builds the matrix coeffRef would, entry for entry and in the same
+// pattern: adding to stored diagonals, to stored zeros, and creating missing ones, on a
+// random sparse matrix with every kind.
+TEST(AddToDiagonalTest, EqualsCoeffRefEntryForEntry) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<Real> value(-1, 1);
+  std::uniform_int_distribution<int> index(0, 39);
+  std::vector<Eigen::Triplet<Real>> entries;
+  for (int k = 0; k < 120; ++k) entries.emplace_back(index(rng), index(rng), value(rng));
+  for (int c = 0; c < 40; c += 7) entries.emplace_back(c, c, 0.0);  // stored zeros on the diagonal
+  SparseMatrix m(40, 40);
+  m.setFromTriplets(entries.begin(), entries.end());
+  m.makeCompressed();
+  std::vector<std::pair<int, Real>> diagonal;
+  for (int c = 0; c < 40; c += 3) diagonal.emplace_back(c, value(rng));
+  SparseMatrix expected = m;
+  for (const auto& [c, v] : diagonal) expected.coeffRef(c, c) += v;
+  expected.makeCompressed();
+  add_to_diagonal(m, diagonal);
+  m.makeCompressed();
+  ASSERT_EQ(m.nonZeros(), expected.nonZeros());
+  for (int c = 0; c < 40; ++c) {
+    SparseMatrix::InnerIterator a(m, c), b(expected, c);
+    for (; a && b; ++a, ++b) {
+      EXPECT_EQ(a.row(), b.row());
+      EXPECT_EQ(a.value(), b.value()) << "(" << a.row() << ", " << c << ")";
+    }
+    EXPECT_FALSE(a || b) << "column " << c;
+  }
+}
+
 TEST(FluidInertiaTest, AutoTakesTheTransferredMassOnlyWithoutSolids) {
   EXPECT_TRUE(resolve_step_options(load_scene(testing::scene_path("dam_break/dam_break.json"), {})).inertia_from_transfer);
   EXPECT_FALSE(resolve_step_options(load_scene(testing::scene_path("floating_block/floating_block.json"), {})).inertia_from_transfer);
