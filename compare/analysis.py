@@ -252,6 +252,10 @@ def reduce_series(t: np.ndarray, y: np.ndarray, reducer: str, tail: float = 0.5,
         return float(s.y[-1])
     if reducer == "max":
         return float(np.max(s.y))
+    if reducer == "std_tail":
+        # step-to-step noise of a quantity that should hold still (a force at rest)
+        start = s.t[-1] - tail * (s.t[-1] - s.t[0])
+        return float(np.std(s.y[s.t >= start]))
     if reducer == "mean_tail":
         start = s.t[-1] - tail * (s.t[-1] - s.t[0])
         return float(np.mean(s.y[s.t >= start]))

@@ -85,7 +85,8 @@ class ScalarSpec:
     (the largest mean over a sliding window of ``window`` seconds, e.g. a force without its
     single-step spikes), "integral" (the time integral from ``start`` up to ``until`` seconds,
     or over the run: an impulse), "window_mean" (the time average from ``start`` to
-    ``until``), "largest_change" (the relative change from the first sample farthest from
+    ``until``), "std_tail" (the standard deviation over the last ``tail`` fraction: the noise
+    of a quantity that should hold still), "largest_change" (the relative change from the first sample farthest from
     zero, with its sign: a volume that dips and recovers). With ``subtract_column`` the series reduced is ``column - subtract_column +
     offset`` (e.g. a draft: water level - centre height + half the body's height).
     """
@@ -361,7 +362,12 @@ def _force_at_rest(name: str, title: str, column: str, what: str, reference: flo
                             skip_initial=True),),
         scalars=(ScalarSpec(f"{column}_mean", FORCE_2D, f"{what}, mean over the last {100 * tail:.0f} %",
                             reference=reference, reference_label=label, column=column,
-                            reducer="mean_tail", tail=tail),),
+                            reducer="mean_tail", tail=tail),
+                 # issue 23 item 3: a body at rest feels a steady force; its standard
+                 # deviation is the step-to-step noise of the interface force
+                 ScalarSpec(f"{column}_std", FORCE_2D, f"{what}, standard deviation over the last {100 * tail:.0f} %",
+                            reference=0.0, reference_label="0 (at rest)", column=column,
+                            reducer="std_tail", tail=tail)),
         primary=(column, "hydrostatic"),
     )
 

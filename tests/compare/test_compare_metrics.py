@@ -286,3 +286,17 @@ def test_largest_change_is_the_farthest_excursion_with_its_sign():
         assert scalar_value_u(run, spec)[0] == pytest.approx(-0.03, rel=1e-3)
         flat = Run(Path("synthetic"), "iqmpm", {"status": "ok"}, Metrics(Path("synthetic"), t, {"volume": np.full_like(t, 0.04)}))
         assert scalar_value_u(flat, spec)[0] == 0.0
+
+
+def test_std_tail_is_the_noise_over_the_tail_only():
+    # A force at rest, 196.2 N/m, with an alternating +-2 N/m in the last half and a large
+    # swing before it: the scalar over the last 50 % reads the alternation's 2 N/m, not
+    # the swing; a steady series reads 0.
+    t = np.linspace(0.0, 1.0, 1001)
+    f = np.where(t < 0.4, 196.2 + 150 * np.sin(40 * t), 196.2 + 2.0 * (-1.0) ** np.arange(len(t)))
+    spec = next(s for s in lookup("submerged_block").scalars if s.name == "block_force_y_std")
+    run = Run(Path("synthetic"), "iqmpm", {"status": "ok"}, Metrics(Path("synthetic"), t, {"block_force_y": f}))
+    assert scalar_value_u(run, spec)[0] == pytest.approx(2.0, rel=1e-3)
+    steady = Run(Path("synthetic"), "iqmpm", {"status": "ok"},
+                 Metrics(Path("synthetic"), t, {"block_force_y": np.full_like(t, 196.2)}))
+    assert scalar_value_u(steady, spec)[0] == pytest.approx(0.0, abs=1e-12)
