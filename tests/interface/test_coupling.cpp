@@ -96,14 +96,15 @@ TYPED_TEST(CouplingTest, HydrostaticGhostPressureStartsASubmergedBlockInBalance)
   EXPECT_THROW(Simulation<dim>(read_scene(this->submerged("neutral_block.json", {"fluid.shapes=[]"}))), InputError);
 }
 
-// coupling.interface_reach = 0.6 (the floating and neutral-block scenes'): the seeded water
-// and block lattices meet exactly 0.5 dx apart. At the default reach of 0.5 dx, sub-micron
+// coupling.interface_reach = 0.6 (the default since; the coupled scenes'): the seeded water
+// and block lattices meet exactly 0.5 dx apart. At the reference code's reach of 0.5 dx, sub-micron
 // motions break those ties: the clamped block's interface cells went 44, 38, 44 over the
 // first steps and its force flickered (std 18.5 N/m over 0.1-0.3 s). At 0.6 dx the
 // interface holds (measured std 0.39 N/m). 2-D only: 300 steps (about 0.3 s a step in 3-D).
 TEST(CouplingTest, InterfaceHoldsOnAlignedLatticesWithReach06) {
   const testing::OneThread one_thread;
-  Simulation<2> sim(load_scene(testing::scene_path("submerged_block/submerged_block.json"), {"coupling.interface_reach=0.6"}));
+  Simulation<2> sim(load_scene(testing::scene_path("submerged_block/submerged_block.json"),
+                               {"coupling.interface_reach=0.6", "coupling.solid_corner_fraction=0"}));
   int first_count = -1;
   std::vector<double> forces;
   for (int n = 0; n < 300; ++n) {
