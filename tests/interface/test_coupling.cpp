@@ -96,7 +96,7 @@ TYPED_TEST(CouplingTest, HydrostaticGhostPressureStartsASubmergedBlockInBalance)
   EXPECT_THROW(Simulation<dim>(read_scene(this->submerged("neutral_block.json", {"fluid.shapes=[]"}))), InputError);
 }
 
-// coupling.interface_reach = 0.6 (the default since; the coupled scenes'): the seeded water
+// coupling.interface_reach = 0.6 (the default, which the coupled scenes use): the seeded water
 // and block lattices meet exactly 0.5 dx apart. At the reference code's reach of 0.5 dx, sub-micron
 // motions break those ties: the clamped block's interface cells went 44, 38, 44 over the
 // first steps and its force flickered (std 18.5 N/m over 0.1-0.3 s). At 0.6 dx the
