@@ -86,9 +86,10 @@ class ScalarSpec:
     single-step spikes), "integral" (the time integral from ``start`` up to ``until`` seconds,
     or over the run: an impulse), "window_mean" (the time average from ``start`` to
     ``until``), "std_tail" (the standard deviation over the last ``tail`` fraction: the noise
-    of a quantity that should hold still), "largest_change" (the relative change from the first sample farthest from
-    zero, with its sign: a volume that dips and recovers). With ``subtract_column`` the series reduced is ``column - subtract_column +
-    offset`` (e.g. a draft: water level - centre height + half the body's height).
+    of a quantity that should hold still), "largest_change" (the relative change from the
+    first sample farthest from zero, with its sign: a volume that dips and recovers). With
+    ``subtract_column`` the series reduced is ``column - subtract_column + offset`` (e.g. a
+    draft: water level - centre height + half the body's height).
     """
 
     name: str

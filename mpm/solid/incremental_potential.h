@@ -179,7 +179,8 @@ class SolidIncrementalPotential {
   }
 
   SparseMatrix hessian(const Vector& v, bool project_to_psd) const {
-    if (pattern_.empty()) pattern_.build(layout_, free_node_, free_number_, stencil_free_);  // only an assembled Hessian needs it
+    // Only an assembled Hessian needs the pattern; built on first use.
+    if (pattern_.empty()) pattern_.build(layout_, free_node_, free_number_, stencil_free_);
     const int n = particle_count();
     const std::vector<TensorMat<dim>> stiffness = particle_stiffness(v, project_to_psd);
 
@@ -192,8 +193,10 @@ class SolidIncrementalPotential {
     Real* values = H.valuePtr();
     std::fill(values, values + columns.size(), Real(0));
 
-    for (int r = 0; r < int(free_node_.size()); ++r)
-      for (int a = 0; a < dim; ++a) values[pattern_.entry(r, pattern_.slot(r, HessianPattern<dim>::kCentreCode), a, a)] += mass_[dim * r + a];
+    for (int r = 0; r < int(free_node_.size()); ++r) {
+      const int own = pattern_.slot(r, HessianPattern<dim>::kCentreCode);  // node r with itself
+      for (int a = 0; a < dim; ++a) values[pattern_.entry(r, own, a, a)] += mass_[dim * r + a];
+    }
 
     // Block (i, j) of particle p: H_(i a),(j b) = sum_cd A_(c dim + a),(d dim + b) b_i[c] b_j[d],
     // A = dt^2 V0 dP/dF, since dF/dv_(i a) = dt e_a b_i^T has vec entries b_i[c] at c dim + a.

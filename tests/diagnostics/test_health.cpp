@@ -34,8 +34,9 @@ TYPED_TEST_SUITE(HealthTest, testing::Dimensions);
 
 // Clouds of three bodies that interpenetrate, in clusters whose gaps straddle the link
 // length (some closer, some farther), or clusters metres apart: the same pieces as the
-// pair-by-pair definition, seed after seed; and the edge cases: pairs just inside and just outside the link,
-// along an axis and across a diagonal, and particles at negative coordinates.
+// pair-by-pair definition, seed after seed; and the edge cases: pairs just inside and just
+// outside the link, along an axis and across a diagonal, and particles at negative
+// coordinates.
 TYPED_TEST(HealthTest, BodyPiecesAreTheComponentsOfTheLinkGraph) {
   constexpr int dim = TypeParam::value;
   const Real link = 0.03;
