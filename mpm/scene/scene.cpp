@@ -240,6 +240,13 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
   scene.dt_min = root.number("dt_min", 1e-7, 0, kInf, "smallest time step (s); a smaller one needed stops the run", true);
   scene.dt_max = root.number("dt_max", 1e-2, 0, kInf, "largest time step (s)", true);
   if (!docs && scene.dt_min > scene.dt_max) throw InputError("scene key 'dt_min': must not exceed dt_max");
+  scene.solid_time_integration = root.option<SolidTimeIntegration>(
+      "solid_time_integration", scene.solid_time_integration,
+      {{"implicit_euler", SolidTimeIntegration::implicit_euler}, {"midpoint", SolidTimeIntegration::midpoint}},
+      "time integration of the solids' elasticity: implicit_euler (first order, robust; a vibration loses about "
+      "2 pi^2 / N of its amplitude a period at N steps a period) or midpoint (second order, keeps a vibration's "
+      "energy; undamped, it needs steps that resolve the solid's motion: at large rotation against a wall at the "
+      "CFL step it can create energy, which the health checks stop; docs/method.md#solid-time-integration)");
   if (!docs && scene.end_time < scene.dt_min)
     throw InputError(fmt::format("scene key 'end_time' = {:g}: shorter than one smallest step (dt_min = {:g} s); accepted: "
                                  "end_time >= dt_min", scene.end_time, scene.dt_min));

@@ -10,6 +10,7 @@
 #include "materials/solid_material.h"
 #include "pressure/warm_start.h"
 #include "scene/json_reader.h"
+#include "solid/time_integration.h"
 
 namespace iqmpm {
 
@@ -142,6 +143,7 @@ struct SceneSpec {
   HealthSpec health;
   Real cfl = 0.5;
   Real dt_min = 1e-7, dt_max = 1e-2;
+  SolidTimeIntegration solid_time_integration = SolidTimeIntegration::implicit_euler;
   std::array<std::array<bool, 2>, 3> slip_walls{};  // [axis][side]: a free-slip wall (else no wall)
   FluidSpec fluid;
   std::vector<SolidSpec> solids;

@@ -58,6 +58,7 @@ struct StepOptions {
   Real interface_reach = 0.6;                // coupling.interface_reach (in dx)
   LinearSolverOptions pressure_solver;       // solver.* (LDL^T whenever the solid's stiffness is in the solve)
   ProjectedNewtonOptions newton;             // newton.*
+  SolidTimeIntegration solid_time_integration = SolidTimeIntegration::implicit_euler;
 };
 
 template <int dim>
@@ -182,6 +183,7 @@ class Simulation {
   std::vector<std::uint8_t> wall_held_axes_;   // dense over nodes; bit a: component held by a wall this step
   std::vector<Vec<dim>> node_velocity_star_;   // v_s* after Newton, dense over nodes
   std::vector<Vec<dim>> node_velocity_;        // v_s^{n+1}, dense over nodes
+  std::vector<Vec<dim>> node_start_velocity_;  // midpoint rule: v_s^n without this step's gravity, dense; else empty
   std::vector<Vec<dim>> corner_velocity_;      // v_f^{n+1}, dense over corners
   // The Newton Hessian at v* and the dense node of each of its dim-row groups (empty: the
   // solid's lumped mass in the solve, or no free solid node).

@@ -1,5 +1,6 @@
 // §3 step 2: v_s^n -> v_s* by projected Newton on the incremental potential
-// (solid/incremental_potential.h, solid/projected_newton.h).
+// (solid/incremental_potential.h, solid/projected_newton.h) of the scene's time
+// integration (implicit Euler or the midpoint rule, method.md#solid-time-integration).
 #pragma once
 
 #include <fmt/format.h>
@@ -33,6 +34,20 @@ void Simulation<dim>::solve_solid_momentum(Real dt) {
       if (slip_[a][1] && i[a] >= grid_.cells[a] - 1 && v[a] >= 0) state.fixed_axes[k] |= std::uint8_t(1u << a);
     }
   }
+  // The midpoint rule's start velocity: v^n before this step's gravity (P2G added dt g to
+  // every node's momentum), the wall-held components at zero, clamped nodes at rest.
+  const bool midpoint = options_.solid_time_integration == SolidTimeIntegration::midpoint;
+  node_start_velocity_.clear();
+  if (midpoint) {
+    node_start_velocity_.assign(nodes.size(), Vec<dim>::Zero());
+    for (int k = 0; k < nodes.size(); ++k) {
+      if (!(state.mass[k] > 0) || (!state.clamped.empty() && state.clamped[k])) continue;
+      node_start_velocity_[k] = state.velocity[k] - dt * gravity_;
+      for (int a = 0; a < dim; ++a)
+        if (state.fixed_axes[k] & (1u << a)) node_start_velocity_[k][a] = 0;
+    }
+    state.start_velocity = node_start_velocity_;
+  }
   // Every node with mass clamped (a fixed obstacle): nothing to solve, v* = 0.
   bool any_free = false;
   for (int k = 0; k < nodes.size() && !any_free; ++k) {
@@ -47,7 +62,8 @@ void Simulation<dim>::solve_solid_momentum(Real dt) {
   }
   SolidLinearisation linearisation;
   const NewtonResult result = solid_step(grid_, solid_, materials_, solid_.body, state, dt, options_.newton, node_velocity_star_,
-                                         options_.solid_stiffness_in_solve ? &linearisation : nullptr);
+                                         options_.solid_stiffness_in_solve ? &linearisation : nullptr,
+                                         options_.solid_time_integration);
   last_.newton_iterations = result.iterations;
   last_.newton_cg_iterations = result.cg_iterations;
   if (!result.converged)

@@ -61,8 +61,19 @@ void Simulation<dim>::grid_to_particles(Real dt) {
   if (!has_solids()) return;
   // Solid: v_p, C_p, F_p^{n+1} = (I + dt grad v) F_p^n; J_g = 1 - p_g / lambda_g from the
   // solved matrix pressure of the particle's dual cell (before it moves); then x += dt v.
+  // The midpoint rule moves F and x with the step's mean velocity (u + v^{n+1}) / 2, the
+  // configuration its Newton step balanced (solid/incremental_potential.h); v_p and C_p
+  // stay those of v^{n+1}.
   std::vector<Mat<dim>> velocity_gradient;
   solid_grid_to_particles(grid_, node_velocity_, solid_, &velocity_gradient);
+  std::vector<Vec<dim>> displacement_velocity;
+  if (!node_start_velocity_.empty()) {
+    std::vector<Vec<dim>> mean_velocity(node_velocity_.size());
+    for (std::size_t k = 0; k < mean_velocity.size(); ++k)
+      mean_velocity[k] = Real(0.5) * (node_start_velocity_[k] + node_velocity_[k]);
+    interpolate_solid_velocity(grid_, mean_velocity, solid_, displacement_velocity, velocity_gradient);
+  }
+  const std::vector<Vec<dim>>& moving_velocity = displacement_velocity.empty() ? solid_.velocity : displacement_velocity;
   const GridLayout<dim> cells = grid_.dual_cells();
   const int n = int(solid_.size());
   Real min_J = std::numeric_limits<Real>::infinity();
@@ -72,7 +83,7 @@ void Simulation<dim>::grid_to_particles(Real dt) {
     min_J = std::min(min_J, solid_.deformation_gradient[p].determinant());
     const int cell = cells.index(dual_cell_of<dim>(grid_.to_cells(solid_.position[p])));
     solid_.ghost_J[p] = 1 - ghost_pressure(cell) / ghost_stiffness_[solid_.body[p]];
-    solid_.position[p] += dt * solid_.velocity[p];
+    solid_.position[p] += dt * moving_velocity[p];
   }
   last_.solid_min_J = min_J;
   if (!(min_J > 0))

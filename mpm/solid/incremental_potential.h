@@ -1,14 +1,21 @@
-// The implicit-Euler incremental potential of the solid (method.md §3 step 2), over the
+// The incremental potential of the solid's implicit step (method.md §3 step 2), over the
 // velocities of the active quadratic nodes (N2, mass > 0) that are not clamped:
 //
-//   E(v) = sum_i m_i/2 |v_i - v_i^n|^2 + sum_p V0_p Psi(F_p(v)),
-//   F_p(v) = (I + dt sum_i v_i grad w_ip^T) F_p^n = F_p^n + dt sum_i v_i b_ip^T,
-//   b_ip = F_p^nT grad w_ip,
+//   E(v) = sum_i m_i/2 |v_i - v_i^n|^2 + (dt / tau) sum_p V0_p Psi(F_p(v)),
+//   F_p(v) = F_p^n + tau sum_i (v_i + u_i) b_ip^T,   b_ip = F_p^nT grad w_ip,
 //
 // with its gradient  g_i = m_i (v_i - v_i^n) + dt sum_p V0_p P(F_p) b_ip
-// and its Hessian    H = M + dt^2 sum_p V0_p (dF_p/dv)^T dP/dF (dF_p/dv),
+// and its Hessian    H = M + dt tau sum_p V0_p (dF_p/dv)^T dP/dF (dF_p/dv),
 // dP/dF optionally projected to PSD per particle (psd_projection.h), so that H is SPD.
-// Gravity is already in v^n (P2G, §3 step 1).
+// Gravity is already in v^n (P2G, §3 step 1). The rule (SolidTimeIntegration) sets tau and u:
+//   implicit Euler: tau = dt, u = 0: the force at the end of the step, F_p(v) = F_p^{n+1};
+//   midpoint: tau = dt / 4, u = the nodes' velocity at the step's start without this step's
+//   gravity (SolidNodes::start_velocity): the step moves the material with the mean velocity
+//   (u + v) / 2, so F_p^{n+1} = F_p^n + dt/2 sum (v_i + u_i) b^T and F_p(v) = (F_p^n +
+//   F_p^{n+1}) / 2, the midpoint configuration (method.md#solid-time-integration). The
+//   stationarity m (v - v^n) = -dt sum_p V0 P(F_mid) b is the implicit midpoint rule, which
+//   keeps the energy of a vibrating solid where implicit Euler removes (omega dt)^2 of it a
+//   step; its Hessian carries dt^2 / 4 K, the trapezoidal rule's effective stiffness.
 //
 // Unknowns: node r of the free (active, not clamped) nodes, numbered in the order of
 // Grid::nodes(), owns entries r*dim .. r*dim+dim-1. A clamped node (Dirichlet) keeps its
@@ -34,6 +41,7 @@
 #include "grid/kernels.h"
 #include "particles/particles.h"
 #include "solid/hessian_pattern.h"
+#include "solid/time_integration.h"
 
 namespace iqmpm {
 
@@ -47,6 +55,10 @@ struct SolidNodes {
   // Bit a set: component a of the node is held at zero (a free-slip wall normal, method.md
   // §1); the other components stay free. Empty: no such node.
   std::vector<std::uint8_t> fixed_axes;
+  // The midpoint rule's u: v at the step's start, before this step's gravity, with the
+  // wall-held components at zero (the wall holds them over the whole step). Unused by
+  // implicit Euler; empty: zero.
+  std::vector<Vec<dim>> start_velocity;
 };
 
 template <int dim, class Material>
@@ -57,17 +69,22 @@ class SolidIncrementalPotential {
 
   // Every particle uses `material`.
   SolidIncrementalPotential(const Grid<dim>& grid, const Particles<dim>& particles,
-                            const Material& material, const SolidNodes<dim>& nodes, Real dt)
+                            const Material& material, const SolidNodes<dim>& nodes, Real dt,
+                            SolidTimeIntegration rule = SolidTimeIntegration::implicit_euler)
       : SolidIncrementalPotential(grid, particles, std::vector<Material>{material}, {}, nodes,
-                                  dt) {}
+                                  dt, rule) {}
 
   // Particle p uses materials[material_of_particle[p]] (e.g. Particles::body when several
   // solids of one model differ in parameters); an empty index vector means materials[0].
   SolidIncrementalPotential(const Grid<dim>& grid, const Particles<dim>& particles,
                             std::vector<Material> materials, std::vector<int> material_of_particle,
-                            const SolidNodes<dim>& nodes, Real dt)
+                            const SolidNodes<dim>& nodes, Real dt,
+                            SolidTimeIntegration rule = SolidTimeIntegration::implicit_euler)
       : layout_(grid.nodes()),
         dt_(dt),
+        rule_(rule),
+        tau_(rule == SolidTimeIntegration::midpoint ? Real(0.25) * dt : dt),
+        energy_weight_(rule == SolidTimeIntegration::midpoint ? Real(4) : Real(1)),
         dx_(grid.dx),
         materials_(std::move(materials)),
         material_of_particle_(std::move(material_of_particle)) {
@@ -108,7 +125,7 @@ class SolidIncrementalPotential {
     Mat<dim> F = F_constant_[p];
     for (int e = 0; e < kStencil; ++e) {
       const int r = stencil_free_[p * kStencil + e];
-      if (r >= 0) F.noalias() += dt_ * v.template segment<dim>(dim * r) * b_[p * kStencil + e].transpose();
+      if (r >= 0) F.noalias() += tau_ * v.template segment<dim>(dim * r) * b_[p * kStencil + e].transpose();
     }
     return F;
   }
@@ -117,7 +134,7 @@ class SolidIncrementalPotential {
     return Real(0.5) * (mass_.array() * (v - velocity_n_).array().square()).sum();
   }
 
-  // sum_p V0_p Psi(F_p(v)); +infinity when some F_p is non-finite or outside the
+  // (dt / tau) sum_p V0_p Psi(F_p(v)); +infinity when some F_p is non-finite or outside the
   // material's domain (neo-Hookean J <= 0).
   // The SVDs it computes are kept for gradient() and particle_stiffness() at the same v
   // (the minimiser evaluates them at the accepted trial): one SVD per particle and Newton
@@ -141,6 +158,7 @@ class SolidIncrementalPotential {
       }
     }
     svd_velocity_ = v;
+    sum *= energy_weight_;
     return std::isfinite(sum) ? sum : std::numeric_limits<Real>::infinity();
   }
 
@@ -165,14 +183,14 @@ class SolidIncrementalPotential {
   }
 
   // Requires energy(v) finite. Symmetric to the last bit; SPD when project_to_psd.
-  // dt^2 V0_p dP/dF(F_p(v)) per particle: the elastic Hessian's building block.
+  // dt tau V0_p dP/dF(F_p(v)) per particle: the elastic Hessian's building block.
   std::vector<TensorMat<dim>> particle_stiffness(const Vector& v, bool project_to_psd) const {
     const int n = particle_count();
     std::vector<TensorMat<dim>> stiffness(n);
     const bool kept = svd_kept_for(v);
 #pragma omp parallel for schedule(static)
     for (int p = 0; p < n; ++p)
-      stiffness[p] = dt_ * dt_ * volume_[p] *
+      stiffness[p] = dt_ * tau_ * volume_[p] *
                      (kept && has_svd_[p] ? material(p).first_piola_derivative(svd_[p], project_to_psd)
                                           : material(p).first_piola_derivative(deformation_gradient(p, v), project_to_psd));
     return stiffness;
@@ -199,7 +217,8 @@ class SolidIncrementalPotential {
     }
 
     // Block (i, j) of particle p: H_(i a),(j b) = sum_cd A_(c dim + a),(d dim + b) b_i[c] b_j[d],
-    // A = dt^2 V0 dP/dF, since dF/dv_(i a) = dt e_a b_i^T has vec entries b_i[c] at c dim + a.
+    // A = dt tau V0 dP/dF, since dF/dv_(i a) = tau e_a b_i^T has vec entries tau b_i[c] at
+    // c dim + a (and the energy's weight is dt / tau).
     using RowBlock = Eigen::Matrix<Real, dim, dim * dim>;
     for (int p = 0; p < n; ++p) {
       const TensorMat<dim>& A = stiffness[p];
@@ -235,7 +254,7 @@ class SolidIncrementalPotential {
   }
 
   // The Hessian at v without assembling it, for CG (projected_newton.h): the particles'
-  // stiffness dt^2 V0_p dP/dF(F_p) and the Hessian's diagonal. A product then costs a
+  // stiffness dt tau V0_p dP/dF(F_p) and the Hessian's diagonal. A product then costs a
   // gather, a dim^2 x dim^2 product and a scatter per particle, where the assembly above
   // forms (3^dim)^2 / 2 blocks per particle (in 3-D, 365 of them, each 3 x 3).
   struct Linearization {
@@ -341,13 +360,19 @@ class SolidIncrementalPotential {
   }
 
   // Per particle: V0, b_ip for its 3^dim nodes, their free numbers, and the constant part
-  // of F_p(v) (F^n plus the clamped nodes' prescribed velocities).
+  // of F_p(v): F^n, plus the clamped nodes' prescribed velocities times the time to the
+  // evaluated configuration, plus tau u_i on the free nodes (midpoint).
   void gather_particles(const Grid<dim>& grid, const Particles<dim>& particles, const SolidNodes<dim>& nodes) {
     const int n = int(particles.size());
     volume_.resize(n);
     F_constant_.resize(n);
     b_.resize(std::size_t(n) * kStencil);
     stencil_free_.resize(std::size_t(n) * kStencil);
+    const bool midpoint = rule_ == SolidTimeIntegration::midpoint && !nodes.start_velocity.empty();
+    // A clamped node moves at its prescribed velocity over the whole step: by dt at the
+    // step's end (implicit Euler), by dt / 2 at its midpoint.
+    const Real clamped_step = rule_ == SolidTimeIntegration::midpoint ? Real(0.5) * dt_ : dt_;
+    assert(nodes.start_velocity.empty() || int(nodes.start_velocity.size()) == layout_.size());
 #pragma omp parallel for schedule(static)  // each particle writes its own entries
     for (int p = 0; p < n; ++p) {
       const Mat<dim>& Fn = particles.deformation_gradient[p];
@@ -363,7 +388,8 @@ class SolidIncrementalPotential {
         b_[p * kStencil + e] = b;
         stencil_free_[p * kStencil + e] = free_number_[k];
         // An inactive node (zero mass) of a particle's stencil has zero weight and gradient.
-        if (free_number_[k] < 0 && nodes.mass[k] > 0) F_constant_[p].noalias() += dt_ * clamped_value_[k] * b.transpose();
+        if (free_number_[k] < 0 && nodes.mass[k] > 0) F_constant_[p].noalias() += clamped_step * clamped_value_[k] * b.transpose();
+        if (free_number_[k] >= 0 && midpoint) F_constant_[p].noalias() += tau_ * nodes.start_velocity[k] * b.transpose();
         ++e;
       });
     }
@@ -395,6 +421,9 @@ class SolidIncrementalPotential {
 
   GridLayout<dim> layout_;
   Real dt_;
+  SolidTimeIntegration rule_;
+  Real tau_;            // F_p(v)'s velocity factor: dt (implicit Euler) or dt / 4 (midpoint)
+  Real energy_weight_;  // dt / tau: the gradient's factor stays dt
   Real dx_;
   std::vector<Material> materials_;
   mutable std::vector<RotationVariantSvd<dim>> svd_;  // elastic_energy()'s, per particle

@@ -8,7 +8,9 @@
 //      clamped / clamped_velocity for Dirichlet nodes (e.g. the top of the gate);
 //   2. solid_step(...) -> dense node velocities v*, and the result (check result.converged);
 //   3. after the coupled pressure solve, G2P (solid_grid_to_particles) with the final
-//      velocities and F_p^{n+1} = (I + dt grad v(x_p)) F_p^n, the same F_p(v) as the energy.
+//      velocities and F_p^{n+1} = (I + dt grad v(x_p)) F_p^n, the same F_p(v) as the energy;
+//      with the midpoint rule, F and x move with the step's mean velocity (u + v^{n+1}) / 2
+//      (incremental_potential.h), the particle keeps v^{n+1}.
 // The particles' positions and F^n must not change between steps 1 and 2.
 #pragma once
 
@@ -20,7 +22,7 @@
 namespace iqmpm {
 
 // The step's linearisation at v*, for a coupled solve that sees the solid's stiffness: the
-// projected Hessian M + dt^2 K and the dense node of each of its dim-row groups.
+// projected Hessian M + dt tau K (incremental_potential.h) and the dense node of each of its dim-row groups.
 struct SolidLinearisation {
   Eigen::SparseMatrix<Real, Eigen::RowMajor, int> hessian;
   std::vector<int> nodes;
@@ -29,14 +31,16 @@ struct SolidLinearisation {
 // Minimises the incremental potential starting from v^n and writes v* dense over
 // Grid::nodes() (clamped nodes: their prescribed velocity; inactive nodes: v^n unchanged).
 // Particle p uses materials[material_of_particle[p]] (empty: materials[0]). With
-// `linearisation`, also the Hessian at v*.
+// `linearisation`, also the Hessian at v*. `rule`: the potential's time integration (the
+// midpoint rule reads nodes.start_velocity).
 template <int dim, class Material>
 NewtonResult solid_step(const Grid<dim>& grid, const Particles<dim>& particles, std::vector<Material> materials,
                         std::vector<int> material_of_particle, const SolidNodes<dim>& nodes, Real dt,
                         const ProjectedNewtonOptions& options, std::vector<Vec<dim>>& node_velocity,
-                        SolidLinearisation* linearisation = nullptr) {
+                        SolidLinearisation* linearisation = nullptr,
+                        SolidTimeIntegration rule = SolidTimeIntegration::implicit_euler) {
   const SolidIncrementalPotential<dim, Material> potential(grid, particles, std::move(materials),
-                                                           std::move(material_of_particle), nodes, dt);
+                                                           std::move(material_of_particle), nodes, dt, rule);
   auto v = potential.initial_velocity();
   const NewtonResult result = minimize_projected_newton(potential, v, options);
   potential.scatter(v, node_velocity);

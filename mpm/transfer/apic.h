@@ -137,4 +137,29 @@ void solid_grid_to_particles(const Grid<dim>& grid, const std::vector<Vec<dim>>&
   }
 }
 
+// A nodal velocity field at the solid particles: v(x_p) = sum w v_i and its gradient
+// sum v_i grad w^T (the midpoint rule's mean velocity, simulation/transfer_stages.h).
+template <int dim>
+void interpolate_solid_velocity(const Grid<dim>& grid, const std::vector<Vec<dim>>& node_velocity,
+                                const Particles<dim>& particles, std::vector<Vec<dim>>& velocity,
+                                std::vector<Mat<dim>>& velocity_gradient) {
+  const GridLayout<dim> nodes = grid.nodes();
+  const int n = int(particles.size());
+  velocity.resize(n);
+  velocity_gradient.resize(n);
+#pragma omp parallel for schedule(static)
+  for (int p = 0; p < n; ++p) {
+    const auto stencil = quadratic_stencil<dim>(grid.to_cells(particles.position[p]), grid.dx);
+    Vec<dim> v = Vec<dim>::Zero();
+    Mat<dim> grad_v = Mat<dim>::Zero();
+    for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
+      const Vec<dim>& vi = node_velocity[nodes.index(stencil.base + offset)];
+      v += stencil.weight(offset) * vi;
+      grad_v += vi * stencil.gradient(offset).transpose();
+    });
+    velocity[p] = v;
+    velocity_gradient[p] = grad_v;
+  }
+}
+
 }  // namespace iqmpm
