@@ -147,6 +147,17 @@ std::vector<int> pieces_by_body(const std::vector<Vec<dim>>& position, const std
   return pieces;
 }
 
+// The fewest particles per axis of any body (solids[].particles_per_axis): the link of
+// body_pieces is three of that body's spacings, lenient for bodies seeded finer.
+inline int coarsest_solid_seeding(const SceneSpec& scene) {
+  int fewest = scene.particles_per_axis;
+  if (!scene.solids.empty()) {
+    fewest = scene.solids.front().particles_per_axis;
+    for (const auto& solid : scene.solids) fewest = std::min(fewest, solid.particles_per_axis);
+  }
+  return fewest;
+}
+
 template <int dim>
 std::vector<int> body_pieces(const Simulation<dim>& sim, Real link) {
   return pieces_by_body<dim>(sim.solid().position, sim.solid().body, int(sim.materials().size()), link);
@@ -212,7 +223,7 @@ class HealthChecks {
   // kinetic energy at the start).
   HealthChecks(const Simulation<dim>& sim, Real energy_growth)
       : energy_growth_(energy_growth),
-        link_(3 * sim.grid().dx / sim.scene().particles_per_axis),
+        link_(3 * sim.grid().dx / coarsest_solid_seeding(sim.scene())),
         seeded_pieces_(body_pieces(sim, link_)),
         energy_(mechanical_energy(sim)) {
     const Vec<dim> g = sim.gravity();

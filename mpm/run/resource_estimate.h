@@ -82,10 +82,14 @@ inline ResourceEstimate estimate_resources(const SceneSpec& scene) {
   }
   const double cell_volume = std::pow(scene.dx, dim), per_cell = std::pow(scene.particles_per_axis, dim);
   double solid_volume = 0;
-  for (const auto& solid : scene.solids) solid_volume += volume_inside(solid.shapes, scene);
+  e.solid_particles = 0;
+  for (const auto& solid : scene.solids) {
+    const double volume = volume_inside(solid.shapes, scene), solid_per_cell = std::pow(solid.particles_per_axis, dim);
+    solid_volume += volume;
+    e.solid_particles += std::min(volume / cell_volume * solid_per_cell, e.cells * solid_per_cell);
+  }
   const double fluid_volume = volume_inside(scene.fluid.shapes, scene);
   e.fluid_particles = std::min(fluid_volume / cell_volume * per_cell, e.cells * per_cell);
-  e.solid_particles = std::min(solid_volume / cell_volume * per_cell, e.cells * per_cell);
   // A flow spreads: the dam break's active cells grow to 1.09 times the cells it fills at
   // the start. A quarter more, never more than the grid.
   e.unknowns = std::min(e.cells, 1.25 * (fluid_volume + solid_volume) / cell_volume);

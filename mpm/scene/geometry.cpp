@@ -71,15 +71,25 @@ void check_simple_polygon(const std::vector<Real>& v, const std::string& path) {
     }
 }
 
-// Two bodies seeded into the same space would each put a particle on the same lattice
-// point and push apart from the first step: refused, found on the unjittered seeding
-// lattice (simulation/seeding.h) inside the boxes around both shapes. A solid reaching
+// Two bodies seeded into the same space would each put particles there and push apart from
+// the first step: refused, found on the finer of their unjittered seeding lattices
+// (simulation/seeding.h) inside the boxes around both shapes. A solid reaching
 // past the domain is seeded only inside it, which changes its mass and shape: a warning,
 // since a shape drawn past a wall is a usual way to say "up to the wall"
 // (docs/method.md#scene-geometry).
 void check_solid_geometry(const SceneSpec& scene) {
   const int dim = scene.dim;
-  const Real spacing = scene.dx / scene.particles_per_axis;
+  double cells = 1;
+  for (int a = 0; a < dim; ++a) cells *= std::round((scene.domain_max[a] - scene.domain_min[a]) / scene.dx);
+  for (std::size_t i = 0; i < scene.solids.size(); ++i) {
+    // A body's seeding lattice spans the domain (simulation/seeding.h): the index limit of
+    // check_index_range at its own particles_per_axis.
+    const double lattice = cells * std::pow(scene.solids[i].particles_per_axis, dim);
+    if (lattice > std::numeric_limits<int>::max())
+      throw InputError(fmt::format("scene key 'solids[{}].particles_per_axis' = {}: {:.3g} seeding lattice points pass the "
+                                   "solver's 32-bit indices (at most {}); accepted: fewer particles per axis or a coarser dx",
+                                   i, scene.solids[i].particles_per_axis, lattice, std::numeric_limits<int>::max()));
+  }
   for (std::size_t i = 0; i < scene.solids.size(); ++i)
     for (std::size_t si = 0; si < scene.solids[i].shapes.size(); ++si) {
       const ShapeSpec& shape = scene.solids[i].shapes[si];
@@ -95,6 +105,8 @@ void check_solid_geometry(const SceneSpec& scene) {
         for (std::size_t sj = 0; sj < scene.solids[j].shapes.size(); ++sj) {
           const ShapeSpec& other = scene.solids[j].shapes[sj];
           const auto other_box = bounds(other, dim);
+          // The finer of the two bodies' lattices: a shared point of either is in it.
+          const Real spacing = scene.dx / std::max(scene.solids[i].particles_per_axis, scene.solids[j].particles_per_axis);
           // Lattice points x_k = min + spacing (k + 1/2) inside both boxes and the domain.
           std::array<long long, 3> first{}, last{}, k{};
           bool empty = false;

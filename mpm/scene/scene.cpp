@@ -131,7 +131,7 @@ ProbeSpec read_probe(JsonReader& r, int dim, const std::vector<Real>& domain_min
   return p;
 }
 
-SolidSpec read_solid(JsonReader& r, int dim, int index) {
+SolidSpec read_solid(JsonReader& r, int dim, int index, int scene_particles_per_axis) {
   SolidSpec s;
   const bool doc = r.documenting();
   s.name = r.text("name", "solid" + std::to_string(index), "name of the body (logs, outputs); default solid<index>");
@@ -159,6 +159,10 @@ SolidSpec read_solid(JsonReader& r, int dim, int index) {
       "initial_pressure", s.initial_pressure, {{"zero", InitialPressure::zero}, {"hydrostatic", InitialPressure::hydrostatic}},
       "the ghost matrix's starting pressure: zero, or the still water's, for a body at rest in still water wetted all "
       "round below the water line (docs/method.md#hydrostatic-start)");
+  s.particles_per_axis = r.integer(
+      "particles_per_axis", scene_particles_per_axis, 1, 8,
+      "particles per cell along each axis in this body; default: the scene's particles_per_axis (a body resolved "
+      "finer than the water without multiplying the water's particles; docs/method.md#solid-particles)");
   s.initial_velocity = r.vector("initial_velocity", std::vector<Real>(dim, 0), dim, "initial velocity of the body (m/s)");
   for (auto& shape : r.objects("shapes", "regions the body fills; a particle is seeded where any shape contains it. Bodies "
                                          "must not share space (error); a shape reaching past the domain is clipped to it "
@@ -294,11 +298,11 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
   {
     int index = 0;
     for (auto& solid : root.objects("solids", "elastic bodies (absent: no solid); each its own material, outputs and ghost matrix"))
-      scene.solids.push_back(read_solid(solid, dim, index++));
+      scene.solids.push_back(read_solid(solid, dim, index++, scene.particles_per_axis));
     if (docs) {
       Json example = {{"type", "box"}};
       JsonReader solid(example, "solids[]", docs);
-      read_solid(solid, dim, 0);
+      read_solid(solid, dim, 0, scene.particles_per_axis);
       JsonReader shape(example, "solids[].shapes[]", docs);
       read_shape(shape, dim);
       JsonReader clamp(example, "solids[].clamps[]", docs);

@@ -78,6 +78,7 @@ struct SolidSpec {
   Real density = 1000;
   Real mu = 0, lambda = 0;                // Lame parameters (from E, nu when given so)
   Real ghost_stiffness = 1e5;             // lambda_g (Pa)
+  int particles_per_axis = 2;             // this body's seeding; default the scene's
   InitialPressure initial_pressure = InitialPressure::zero;  // the ghost matrix's starting pressure
   std::vector<ShapeSpec> shapes;
   std::vector<ShapeSpec> clamps;          // nodes whose centre lies inside are fixed

@@ -123,7 +123,7 @@ void Simulation<dim>::seed_solids() {
     Vec<dim> v0;
     for (int a = 0; a < dim; ++a) v0[a] = spec.initial_velocity[a];
     Particles<dim> seeded;
-    seed_particles<dim>(grid_, spec.shapes, scene_.particles_per_axis, scene_.jitter, scene_.seed + unsigned(b) + 1,
+    seed_particles<dim>(grid_, spec.shapes, spec.particles_per_axis, scene_.jitter, scene_.seed + unsigned(b) + 1,
                         spec.density, v0, seeded);
     if (seeded.empty())
       throw InputError(fmt::format("scene key '{}.shapes': no particle was seeded (outside the domain or thinner than a particle spacing)", key));

@@ -35,7 +35,8 @@ void Simulation<dim>::solve_solid_momentum(Real dt) {
     }
   }
   // The midpoint rule's start velocity: v^n before this step's gravity (P2G added dt g to
-  // every node's momentum), the wall-held components at zero, clamped nodes at rest.
+  // every node's momentum), the wall-held components at zero; a clamped node's is its
+  // prescribed velocity, zero here (the scene's clamps hold still), as G2P's mean needs.
   const bool midpoint = options_.solid_time_integration == SolidTimeIntegration::midpoint;
   node_start_velocity_.clear();
   if (midpoint) {

@@ -64,10 +64,11 @@ void Simulation<dim>::grid_to_particles(Real dt) {
   // The midpoint rule moves F and x with the step's mean velocity (u + v^{n+1}) / 2, the
   // configuration its Newton step balanced (solid/incremental_potential.h); v_p and C_p
   // stay those of v^{n+1}.
+  const bool midpoint = !node_start_velocity_.empty();
   std::vector<Mat<dim>> velocity_gradient;
-  solid_grid_to_particles(grid_, node_velocity_, solid_, &velocity_gradient);
+  solid_grid_to_particles(grid_, node_velocity_, solid_, midpoint ? nullptr : &velocity_gradient);
   std::vector<Vec<dim>> displacement_velocity;
-  if (!node_start_velocity_.empty()) {
+  if (midpoint) {
     std::vector<Vec<dim>> mean_velocity(node_velocity_.size());
     for (std::size_t k = 0; k < mean_velocity.size(); ++k)
       mean_velocity[k] = Real(0.5) * (node_start_velocity_[k] + node_velocity_[k]);

@@ -56,8 +56,8 @@ struct SolidNodes {
   // §1); the other components stay free. Empty: no such node.
   std::vector<std::uint8_t> fixed_axes;
   // The midpoint rule's u: v at the step's start, before this step's gravity, with the
-  // wall-held components at zero (the wall holds them over the whole step). Unused by
-  // implicit Euler; empty: zero.
+  // wall-held components at zero (the wall holds them over the whole step); a clamped
+  // node's is its velocity at the start. Unused by implicit Euler; empty: zero.
   std::vector<Vec<dim>> start_velocity;
 };
 
@@ -360,8 +360,8 @@ class SolidIncrementalPotential {
   }
 
   // Per particle: V0, b_ip for its 3^dim nodes, their free numbers, and the constant part
-  // of F_p(v): F^n, plus the clamped nodes' prescribed velocities times the time to the
-  // evaluated configuration, plus tau u_i on the free nodes (midpoint).
+  // of F_p(v): F^n, plus the clamped nodes' terms (dt v_c; midpoint: tau (v_c + u_c)), plus
+  // tau u_i on the free nodes (midpoint).
   void gather_particles(const Grid<dim>& grid, const Particles<dim>& particles, const SolidNodes<dim>& nodes) {
     const int n = int(particles.size());
     volume_.resize(n);
@@ -369,9 +369,6 @@ class SolidIncrementalPotential {
     b_.resize(std::size_t(n) * kStencil);
     stencil_free_.resize(std::size_t(n) * kStencil);
     const bool midpoint = rule_ == SolidTimeIntegration::midpoint && !nodes.start_velocity.empty();
-    // A clamped node moves at its prescribed velocity over the whole step: by dt at the
-    // step's end (implicit Euler), by dt / 2 at its midpoint.
-    const Real clamped_step = rule_ == SolidTimeIntegration::midpoint ? Real(0.5) * dt_ : dt_;
     assert(nodes.start_velocity.empty() || int(nodes.start_velocity.size()) == layout_.size());
 #pragma omp parallel for schedule(static)  // each particle writes its own entries
     for (int p = 0; p < n; ++p) {
@@ -388,7 +385,10 @@ class SolidIncrementalPotential {
         b_[p * kStencil + e] = b;
         stencil_free_[p * kStencil + e] = free_number_[k];
         // An inactive node (zero mass) of a particle's stencil has zero weight and gradient.
-        if (free_number_[k] < 0 && nodes.mass[k] > 0) F_constant_[p].noalias() += clamped_step * clamped_value_[k] * b.transpose();
+        if (free_number_[k] < 0 && nodes.mass[k] > 0) {
+          if (midpoint) F_constant_[p].noalias() += tau_ * (clamped_value_[k] + nodes.start_velocity[k]) * b.transpose();
+          else F_constant_[p].noalias() += dt_ * clamped_value_[k] * b.transpose();
+        }
         if (free_number_[k] >= 0 && midpoint) F_constant_[p].noalias() += tau_ * nodes.start_velocity[k] * b.transpose();
         ++e;
       });

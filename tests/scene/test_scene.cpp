@@ -123,6 +123,26 @@ TYPED_TEST(SceneTest, SpacingBeyondTheIndexRangeIsRefused) {
   expect_rejected(doc, {"'dx'", "particles_per_axis = 3"});
 }
 
+// A body seeded finer than the water (solids[].particles_per_axis, default the scene's):
+// read, bounded like the scene's, and its own lattice kept within the index range.
+TYPED_TEST(SceneTest, SolidParticlesPerAxisDefaultsToTheScenesAndIsChecked) {
+  constexpr int dim = TestFixture::dim;
+  Json doc = this->valid_scene();
+  doc["particles_per_axis"] = 3;
+  doc["solids"] = Json::array({{{"youngs_modulus", 1e6}, {"poisson_ratio", 0.3},
+                                {"shapes", Json::array({testing::box(std::vector<Real>(dim, 0.6), std::vector<Real>(dim, 0.7))})}}});
+  EXPECT_EQ(read_scene(doc).solids[0].particles_per_axis, 3);
+  doc["solids"][0]["particles_per_axis"] = 5;
+  EXPECT_EQ(read_scene(doc).solids[0].particles_per_axis, 5);
+  EXPECT_EQ(read_scene(doc).particles_per_axis, 3);
+  doc["solids"][0]["particles_per_axis"] = 9;
+  expect_rejected(doc, {"'solids[0].particles_per_axis'", "9"});
+  doc["solids"][0]["particles_per_axis"] = 8;
+  doc["particles_per_axis"] = 1;
+  doc["dx"] = dim == 2 ? 1.0 / 8000 : 1.0 / 400;  // the body's lattice: 4.1e9 and 3.3e10 points
+  expect_rejected(doc, {"'solids[0].particles_per_axis' = 8", "32-bit indices"});
+}
+
 // The even-odd rule would fill a self-intersecting polygon otherwise than drawn.
 TEST(SceneTest, SelfIntersectingPolygonIsRefused) {
   Json doc = testing::fluid_box_scene(2, 0.1, {0.5, 0.5}, {1.0, 1.0});
