@@ -246,6 +246,7 @@ _COST_S: dict[str, tuple[float, float]] = {
     "floating_block_roll": (155, 500), "floating_block_light": (110, 720),
     "floating_block_3d": (90, 0), "floating_block_3d_fine": (5000, 0),
     "elastic_sphere": (250, 0), "cantilever": (15, 25), "cantilever_vibration": (6, 0),
+    "cantilever_large_deflection": (20, 0),
 }
 
 
@@ -545,6 +546,26 @@ _register(Benchmark(
     metrics=_CANT_METRICS,
     scalars=(_CANT_DECAY, _CANT_FREQUENCY, _CANT_STATIC),
 ))
+
+# The same beam 1/100 as stiff under a gravity ramp: the static tip at large deflection vs the
+# elastica (benchmarks/cantilever/elastica.py), over the last second (the ramp ends at 3 s).
+_CANT_LARGE_DY, _CANT_LARGE_DX = -0.2590, -0.0844  # m
+_register(Benchmark(
+    name="cantilever_large_deflection",
+    title="Cantilever bent to 42 degrees by its own weight (solid only)",
+    dim=2,
+    foam_case=None,
+    metrics=_CANT_METRICS,
+    scalars=(
+        ScalarSpec("static_tip_dy", "m", "tip vertical displacement, mean over the last sixth of the run",
+                   reference=_CANT_LARGE_DY, reference_label="elastica", column="tip_dy", reducer="mean_tail",
+                   tail=1 / 6),
+        ScalarSpec("static_tip_dx", "m", "tip horizontal displacement, mean over the last sixth of the run",
+                   reference=_CANT_LARGE_DX, reference_label="elastica", column="tip_dx", reducer="mean_tail",
+                   tail=1 / 6),
+    ),
+))
+
 
 UNITS: dict[str, str] = {
     "front_x": "m", "height_left": "m", "pressure_right": "Pa", "wall_force_x": FORCE_2D,

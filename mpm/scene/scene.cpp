@@ -212,6 +212,11 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
   std::vector<Real> default_gravity(dim, 0);
   default_gravity[1] = -9.81;
   scene.gravity = root.vector("gravity", default_gravity, dim, "gravitational acceleration (m/s^2); 'up' is opposite to its largest component");
+  scene.gravity_ramp = root.number(
+      "gravity_ramp", 0, 0, kInf,
+      "time (s) over which gravity grows smoothly from zero to its full value, (1 - cos(pi t / T)) / 2: a "
+      "quasi-static load for a static result (docs/method.md#gravity-ramp); 0 = full gravity from the start. The health checks, probes and a "
+      "hydrostatic start use the full gravity");
   scene.end_time = root.number("end_time", std::nullopt, 0, kInf, "simulated time to run (s)", true);
   scene.frame_rate = root.number("frame_rate", 0, 0, kInf, "particle frames written per simulated second; 0 = only the first and the last");
   scene.write_frames = root.boolean("write_frames", true, "write particle frames (HDF5 + XDMF) at all");

@@ -136,6 +136,7 @@ struct SceneSpec {
   Real jitter = 0;
   unsigned seed = 1;
   std::vector<Real> gravity;
+  Real gravity_ramp = 0;   // s over which gravity grows from zero; 0: full from the start
   Real end_time = 1;
   Real frame_rate = 0;     // output frames per second of simulated time; 0: first and last only
   bool write_frames = true;

@@ -85,7 +85,7 @@ void Simulation<dim>::assemble_pressure_system(Real dt) {
       // projection computed rather than transferred / M^f times it, which fed the
       // splashes. Gravity stays dt M^f g, which hydrostatic pressure balances exactly
       // however the particles lie (docs/method.md#fluid-inertia).
-      v += dt * (mass / transferred - 1) * gravity_;
+      v += dt * (mass / transferred - 1) * step_gravity_;
       mass = transferred;
     }
     for (int a = 0; a < dim; ++a) {

@@ -59,6 +59,7 @@ struct StepOptions {
   LinearSolverOptions pressure_solver;       // solver.* (LDL^T whenever the solid's stiffness is in the solve)
   ProjectedNewtonOptions newton;             // newton.*
   SolidTimeIntegration solid_time_integration = SolidTimeIntegration::implicit_euler;
+  Real gravity_ramp = 0;                     // gravity_ramp (s); 0 = full gravity from the start
 };
 
 template <int dim>
@@ -165,7 +166,7 @@ class Simulation {
   const SceneSpec scene_;
   StepOptions options_;
   Grid<dim> grid_;
-  Vec<dim> gravity_;
+  Vec<dim> gravity_;                           // the scene's; this step's is step_gravity_
   int up_axis_ = 1;
   std::array<std::array<bool, 2>, dim> slip_{};
   std::vector<SolidMaterial<dim>> materials_;  // per body
@@ -177,6 +178,7 @@ class Simulation {
   Particles<dim> fluid_, solid_;
 
   // This step's grid state.
+  Vec<dim> step_gravity_ = Vec<dim>::Zero();   // gravity_ scaled by the ramp (gravity_ramp) at the step's middle
   ParticleBins<dim> fluid_bins_, solid_bins_;
   GridMomentum<dim> corner_momentum_;          // fluid P2G on cell corners
   GridMomentum<dim> node_momentum_;            // solid P2G on nodes

@@ -43,7 +43,7 @@ void Simulation<dim>::solve_solid_momentum(Real dt) {
     node_start_velocity_.assign(nodes.size(), Vec<dim>::Zero());
     for (int k = 0; k < nodes.size(); ++k) {
       if (!(state.mass[k] > 0) || (!state.clamped.empty() && state.clamped[k])) continue;
-      node_start_velocity_[k] = state.velocity[k] - dt * gravity_;
+      node_start_velocity_[k] = state.velocity[k] - dt * step_gravity_;
       for (int a = 0; a < dim; ++a)
         if (state.fixed_axes[k] & (1u << a)) node_start_velocity_[k][a] = 0;
     }

@@ -4,6 +4,8 @@
 // scene does not need is skipped (method.md §8).
 #pragma once
 
+#include <cmath>
+
 #include "simulation/pressure_stages.h"
 #include "simulation/set_up.h"
 #include "simulation/solid_stage.h"
@@ -15,6 +17,13 @@ template <int dim>
 void Simulation<dim>::step(Real dt) {
   last_ = StepStats{};
   time_ += dt;
+  // gravity_ramp: gravity grows smoothly to its full value, (1 - cos(pi t / T)) / 2, a
+  // quasi-static load (method.md#gravity-ramp); the factor at the step's middle.
+  const Real middle = time_ - Real(0.5) * dt;
+  const Real ramp = middle < options_.gravity_ramp
+                        ? Real(0.5) * (1 - std::cos(Real(M_PI) * middle / options_.gravity_ramp))
+                        : Real(1);
+  step_gravity_ = ramp * gravity_;
 
   // Particles sorted by dual cell: the bins of P2G, the spatial hash of the IQ search.
   sort_particles();

@@ -34,19 +34,19 @@ void Simulation<dim>::find_interface_quadrature() {
   borrowed_point_bins_ = sort_particles_by_cell(grid_, borrowed_points_);
 }
 
-// §3 step 1: APIC P2G; gravity enters the grid momentum.
+// §3 step 1: APIC P2G; gravity (this step's, under a ramp: time_step.h) enters the grid momentum.
 template <int dim>
 void Simulation<dim>::particles_to_grid(Real dt) {
   auto scope = timer_.scope("p2g");
   if (has_fluid()) {
     fluid_particles_to_grid(grid_, fluid_, fluid_bins_, corner_momentum_);
     for (std::size_t k = 0; k < corner_momentum_.mass.size(); ++k)
-      corner_momentum_.momentum[k] += dt * corner_momentum_.mass[k] * gravity_;
+      corner_momentum_.momentum[k] += dt * corner_momentum_.mass[k] * step_gravity_;
   }
   if (has_solids()) {
     solid_particles_to_grid(grid_, solid_, solid_bins_, node_momentum_);
     for (std::size_t k = 0; k < node_momentum_.mass.size(); ++k)
-      node_momentum_.momentum[k] += dt * node_momentum_.mass[k] * gravity_;
+      node_momentum_.momentum[k] += dt * node_momentum_.mass[k] * step_gravity_;
   }
 }
 

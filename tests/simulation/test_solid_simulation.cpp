@@ -224,6 +224,24 @@ TYPED_TEST(SolidSimulationTest, BodySeedsItsOwnParticlesPerAxis) {
   EXPECT_NEAR(sim.solid().initial_volume[0], std::pow(dx / 3, dim), 1e-15);
 }
 
+// gravity_ramp (method.md#gravity-ramp): gravity (1 - cos(pi t / T)) / 2 of its value up to
+// T, then all of it; a body in free fall has v = g (t - T / 2) once the ramp is over (the
+// ramp's integral is T / 2), here to the midpoint rule's error in the step's factor,
+// pi^2 dt^2 / (48 T) g = 1e-3 m/s; without the ramp it would be g t, 0.245 m/s more.
+TYPED_TEST(SolidSimulationTest, GravityRampDelaysAFreeFallByHalfItsLength) {
+  constexpr int dim = TypeParam::value;
+  Json doc = this->block_scene({0.3, 0.6}, {0.5, 0.8}, {0.4, 0.6}, 0.2);
+  doc["gravity_ramp"] = 0.05;
+  Simulation<dim> sim(read_scene(doc));
+  const double dt = 0.005, ramp = 0.05;
+  for (int step = 0; step < 20; ++step) sim.step(dt);
+  const double t = 20 * dt;
+  for (std::size_t p = 0; p < sim.solid().size(); ++p) {
+    EXPECT_NEAR(sim.solid().velocity[p][1], -9.81 * (t - ramp / 2), 2e-3);
+    EXPECT_NEAR(sim.solid().velocity[p][0], 0.3, 1e-9);
+  }
+}
+
 // Ghost matrix (method.md §1, §5): after the solve, the p_g rows of the constraint hold,
 //   S (p_g^{n+1} - p_g^n) / dt = G^sT v_s^{n+1},
 // to the direct solver's precision (auto is LDL^T in 2-D; named in 3-D, where auto is
