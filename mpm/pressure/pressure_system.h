@@ -82,6 +82,7 @@ class PressureSystem {
     rows_ = 0;
     block_columns_.clear();
     block_mass_ = SparseMatrix();
+    column_extension_.clear();
     released_.clear();
     matrix_ = SparseMatrix();
     unreleased_ = SparseMatrix();
@@ -114,6 +115,14 @@ class PressureSystem {
     block_mass_ = std::move(mass);
   }
 
+  // Velocity entries that are combinations of others (the solid's weak nodes, method.md
+  // #weak-solid-nodes): column c's entries of D go to the columns of `extension[c]` times
+  // their weights, so D acts on the reduced velocities v = T x; the extended entries need
+  // zero inverse mass (nothing is left to move them). Call after reset and before assemble.
+  void set_column_extension(std::vector<std::vector<std::pair<int, Real>>> extension) {
+    column_extension_ = std::move(extension);
+  }
+
   // Adds a block of rows. `rows` are triplets with block-local row indices and column
   // indices local to one material's velocities, which start at `column_offset` in the
   // stacked vector; compliance and rhs_offset have one entry per row (empty means zero).
@@ -141,7 +150,20 @@ class PressureSystem {
   // Builds D and A = dt D M^-1 D^T + diag(compliance), bordered by the mass block if any.
   void assemble(Real dt) {
     constraint_.resize(rows_, inverse_mass_.size());
-    constraint_.setFromTriplets(triplets_.begin(), triplets_.end());
+    if (column_extension_.empty()) {
+      constraint_.setFromTriplets(triplets_.begin(), triplets_.end());
+    } else {
+      std::vector<Eigen::Triplet<Real>> extended;
+      extended.reserve(triplets_.size());
+      for (const auto& t : triplets_) {
+        if (t.col() >= int(column_extension_.size()) || column_extension_[t.col()].empty()) {
+          extended.push_back(t);
+          continue;
+        }
+        for (const auto& [column, weight] : column_extension_[t.col()]) extended.emplace_back(t.row(), column, weight * t.value());
+      }
+      constraint_.setFromTriplets(extended.begin(), extended.end());
+    }
     for (int column : block_columns_) inverse_mass_[column] = 0;
     SparseMatrix multipliers = weighted_gram(constraint_, inverse_mass_, dt);
     std::vector<std::pair<int, Real>> compliance;
@@ -267,6 +289,7 @@ class PressureSystem {
   Real dt_ = 0;
   std::vector<int> block_columns_;
   SparseMatrix block_mass_;
+  std::vector<std::vector<std::pair<int, Real>>> column_extension_;  // per stacked column; empty: itself
   std::vector<std::uint8_t> released_;
   // The assembled matrix with no row released, kept from the first release after an
   // assembly on (the active set may enforce a released row again); empty until then, so a

@@ -20,6 +20,7 @@ class RunStatistics {
     shifted_solves_ += s.linear.shifted;
     newton_.add(s.newton_iterations);
     newton_cg_total_ += s.newton_cg_iterations;
+    extended_nodes_.add(s.extended_solid_nodes);
     solid_min_J_ = std::min(solid_min_J_, double(s.solid_min_J));
     contact_rounds_.add(s.contact_rounds);
     unsettled_steps_ += !s.contact_settled;
@@ -34,7 +35,8 @@ class RunStatistics {
     return {{"steps", steps_}, {"active_cells_max", active_cells_max_}, {"linear", range(linear_)}, {"newton", range(newton_)},
             {"contact_rounds", range(contact_rounds_)}, {"newton_cg_total", newton_cg_total_}, {"wall_clamps", wall_clamps_},
             {"shifted_solves", shifted_solves_}, {"solid_min_J", solid_min_J_}, {"unsettled_steps", unsettled_steps_},
-            {"modified_solves", modified_solves_}, {"linear_method", linear_method_}};
+            {"modified_solves", modified_solves_}, {"linear_method", linear_method_},
+            {"extended_solid_nodes", range(extended_nodes_)}};
   }
   void restore(const Json& state) {
     auto range = [](const Json& j) { return Range{j.at(0).get<long>(), j.at(1).get<int>(), j.at(2).get<int>()}; };
@@ -50,6 +52,8 @@ class RunStatistics {
     unsettled_steps_ = state.at("unsettled_steps").get<int>();
     modified_solves_ = state.at("modified_solves").get<long>();
     linear_method_ = state.at("linear_method").get<std::string>();
+    // A checkpoint written before solid_weak_nodes existed has no count: none were extended.
+    extended_nodes_ = state.contains("extended_solid_nodes") ? range(state.at("extended_solid_nodes")) : Range{};
   }
 
   // The statistics' fields of summary.json.
@@ -63,6 +67,8 @@ class RunStatistics {
                                     {"max", newton_.max},
                                     {"cg_per_step", any ? double(newton_cg_total_) / steps_ : 0.0}};
     summary["solid_min_J"] = solid_min_J_;
+    // Weak solid nodes given by extrapolation per step (solid_weak_nodes = extended).
+    summary["extended_solid_nodes"] = {{"mean", extended_nodes_.mean(steps_)}, {"max", extended_nodes_.max}};
     // Pressure solves per step: above 1 with the unilateral interface (active-set rounds);
     // factor_modified: solves done by modifying the LDL^T factor's changed rows.
     summary["pressure_solves"] = {{"mean", contact_rounds_.mean(steps_)},
@@ -86,7 +92,7 @@ class RunStatistics {
   };
   long steps_ = 0;
   int active_cells_max_ = 0;
-  Range linear_, newton_, contact_rounds_;
+  Range linear_, newton_, contact_rounds_, extended_nodes_;
   long newton_cg_total_ = 0;
   int wall_clamps_ = 0;
   long shifted_solves_ = 0;

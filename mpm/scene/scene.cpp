@@ -256,6 +256,12 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
       "2 pi^2 / N of its amplitude a period at N steps a period) or midpoint (second order, keeps a vibration's "
       "energy; undamped, it needs steps that resolve the solid's motion: at large rotation against a wall at the "
       "CFL step it can create energy, which the health checks stop; docs/method.md#solid-time-integration)");
+  scene.extend_weak_solid_nodes = root.option<bool>(
+      "solid_weak_nodes", scene.extend_weak_solid_nodes, {{"extended", true}, {"free", false}},
+      "the solids' weak nodes, whose quadratic support holds no cell the solid fills: extended (their velocity the "
+      "quadratic extrapolation of the nearest block of inner nodes, extended B-splines; a body across the grid "
+      "bends as stiffly as one along it) or free (unknowns of their own: at 2 particles per axis a beam across "
+      "the grid is 10-13 % too soft; docs/method.md#weak-solid-nodes)");
   if (!docs && scene.end_time < scene.dt_min)
     throw InputError(fmt::format("scene key 'end_time' = {:g}: shorter than one smallest step (dt_min = {:g} s); accepted: "
                                  "end_time >= dt_min", scene.end_time, scene.dt_min));
@@ -381,6 +387,9 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
     if (!docs && e.solid_response == SolidResponse::stiffness && !ldlt)
       throw InputError("scene key 'experimental.solid_response' = \"stiffness\": needs the LDL^T pressure solve; accepted "
                        "with solver.method = \"ldlt\", or \"auto\" in 2-D");
+    if (!docs && e.solid_response == SolidResponse::stiffness && scene.extend_weak_solid_nodes)
+      throw InputError("scene key 'experimental.solid_response' = \"stiffness\": not with solid_weak_nodes = \"extended\" "
+                       "(the Hessian in the solve is over every node); accepted: solid_weak_nodes = \"free\" with it");
   }
   for (auto& probe : root.objects("probes", "metrics written to metrics.csv every step"))
     scene.probes.push_back(read_probe(probe, dim, scene.domain_min, scene.domain_max));

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cassert>
 #include <utility>
 
 #include "core/errors.h"
@@ -96,7 +97,9 @@ void Simulation<dim>::assemble_pressure_system(Real dt) {
       if (sides) wall_holds_.push_back({column, a, sides & 1u ? 0 : 1, mass * v[a] / dt});
     }
   }
+  auto weak_columns = weak_solid_node_columns(inverse_mass);
   system_.reset(inverse_mass);
+  if (!weak_columns.empty()) system_.set_column_extension(std::move(weak_columns));
   if (!solid_hessian_nodes_.empty()) set_solid_mass_block();
   layout_ = SolutionLayout{};
   if (has_solids()) {
@@ -130,6 +133,45 @@ void Simulation<dim>::assemble_pressure_system(Real dt) {
   system_.assemble(dt);
   last_.pressure_unknowns = system_.unknowns();
   last_.velocity_unknowns = (ns + nf) * dim;
+}
+
+// The weak solid nodes (method.md#weak-solid-nodes): a weak node's velocity is its block's
+// extrapolation, so the constraints' columns of a weak node move to its block nodes
+// (PressureSystem::set_column_extension) and the block nodes carry the weak nodes' mass,
+// lumped by the weights: m_j + sum_i e_ij m_i, the row sums of E^T M E, with which the
+// solve changes the solid's momentum by exactly the constraints' impulse. A block node whose
+// lumped mass would fall below half its own (large negative weights on a heavy weak node)
+// takes m_j + sum_i e_ij^2 m_i instead, the diagonal of E^T M E, which is positive.
+template <int dim>
+std::vector<std::vector<std::pair<int, Real>>> Simulation<dim>::weak_solid_node_columns(Eigen::VectorXd& inverse_mass) const {
+  std::vector<std::vector<std::pair<int, Real>>> columns;
+  const WeakSolidNodes& weak = weak_solid_nodes_;
+  if (weak.empty() || !has_solids()) return columns;
+  const int ns = solid_ops_.velocity_dofs();
+  columns.resize(std::size_t(ns) * dim);
+  std::vector<Real> lumped(ns, 0), squared(ns, 0);
+  std::vector<char> block(ns, 0);
+  for (int i = 0; i < weak.size(); ++i) {
+    const int w = solid_ops_.dof_of_node[weak.node[i]];
+    assert(w >= 0);
+    const Real m = node_momentum_.mass[weak.node[i]];
+    for (int j = weak.parent_start[i]; j < weak.parent_start[i + 1]; ++j) {
+      const int d = solid_ops_.dof_of_node[weak.parent[j]];
+      assert(d >= 0);
+      block[d] = 1;
+      lumped[d] += weak.weight[j] * m;
+      squared[d] += weak.weight[j] * weak.weight[j] * m;
+      for (int a = 0; a < dim; ++a) columns[w * dim + a].emplace_back(d * dim + a, weak.weight[j]);
+    }
+    for (int a = 0; a < dim; ++a) inverse_mass[w * dim + a] = 0;
+  }
+  for (int d = 0; d < ns; ++d) {
+    if (!block[d]) continue;
+    const Real own = node_momentum_.mass[solid_ops_.node_of_dof[d]];
+    const Real mass = own + (own + lumped[d] >= Real(0.5) * own ? lumped[d] : squared[d]);
+    for (int a = 0; a < dim; ++a) inverse_mass[d * dim + a] = 1 / mass;  // block nodes hold no component
+  }
+  return columns;
 }
 
 // experimental.solid_response = stiffness: the free solid velocity entries take the Newton
@@ -250,6 +292,7 @@ void Simulation<dim>::update_grid_velocities() {
     node_velocity_ = node_velocity_star_;
     for (int d = 0; d < solid_ops_.velocity_dofs(); ++d)
       for (int a = 0; a < dim; ++a) node_velocity_[solid_ops_.node_of_dof[d]][a] = velocity_next_[d * dim + a];
+    weak_solid_nodes_.extend(node_velocity_);
     // A fluid particle that strayed inside a solid takes the solid's velocity from the
     // corners that move with it (coupling.solid_corner_fraction).
     if (has_fluid() && !solid_corners_.empty()) {

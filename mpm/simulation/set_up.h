@@ -45,6 +45,7 @@ inline StepOptions resolve_step_options(const SceneSpec& scene) {
   o.newton.cg_max_iterations = scene.newton.cg_max_iterations;
   o.newton.project_hessian = scene.newton.project_hessian;
   o.solid_time_integration = scene.solid_time_integration;
+  o.extend_weak_solid_nodes = scene.extend_weak_solid_nodes;
   o.gravity_ramp = scene.gravity_ramp;
   o.newton.direct = scene.newton.direction == NewtonDirection::direct ||
                     (scene.newton.direction == NewtonDirection::automatic && scene.dim == 2);

@@ -27,6 +27,7 @@
 #include "scene/scene.h"
 #include "solid/ghost_matrix.h"
 #include "solid/projected_newton.h"
+#include "solid/weak_node_extension.h"
 #include "transfer/apic.h"
 
 namespace iqmpm {
@@ -38,6 +39,7 @@ struct StepStats {
   int wall_clamps = 0;  // particles pushed back inside a slip wall this step
   int newton_iterations = 0;
   int newton_cg_iterations = 0;
+  int extended_solid_nodes = 0;  // weak solid nodes given by extrapolation (solid_weak_nodes = extended)
   Real solid_min_J = 1;  // smallest det F of a solid particle after the step
   int contact_rounds = 1;  // pressure solves of the step (unilateral interface: active-set rounds)
   bool contact_settled = true;  // unilateral: the active set stopped changing within max_contact_rounds
@@ -59,6 +61,7 @@ struct StepOptions {
   LinearSolverOptions pressure_solver;       // solver.* (LDL^T whenever the solid's stiffness is in the solve)
   ProjectedNewtonOptions newton;             // newton.*
   SolidTimeIntegration solid_time_integration = SolidTimeIntegration::implicit_euler;
+  bool extend_weak_solid_nodes = false;      // solid_weak_nodes = extended
   Real gravity_ramp = 0;                     // gravity_ramp (s); 0 = full gravity from the start
 };
 
@@ -150,6 +153,7 @@ class Simulation {
   void assemble_pressure_system(Real dt);
   void solve_with_interface_constraint();
   void update_grid_velocities();
+  std::vector<std::vector<std::pair<int, Real>>> weak_solid_node_columns(Eigen::VectorXd& inverse_mass) const;
   void measure_interface_forces();
   void grid_to_particles(Real dt);
   void correct_fluid_positions();
@@ -191,6 +195,7 @@ class Simulation {
   // solid's lumped mass in the solve, or no free solid node).
   Eigen::SparseMatrix<Real, Eigen::RowMajor, int> solid_hessian_;
   std::vector<int> solid_hessian_nodes_;
+  WeakSolidNodes weak_solid_nodes_;  // this step's (solid_weak_nodes = extended)
   FluidOperators<dim> ops_;
   SolidOperators<dim> solid_ops_;
   std::vector<std::uint8_t> solid_corners_;    // fluid corners moving with a solid (coupling.solid_corner_fraction)

@@ -56,15 +56,21 @@ void Simulation<dim>::solve_solid_momentum(Real dt) {
     any_free = state.mass[k] > 0 && !clamped;
   }
   solid_hessian_nodes_.clear();
+  weak_solid_nodes_ = WeakSolidNodes{};
   if (!any_free) {
     node_velocity_star_.assign(nodes.size(), Vec<dim>::Zero());
     wall_held_axes_ = std::move(state.fixed_axes);
     return;
   }
+  // Weak nodes by extrapolation (method.md#weak-solid-nodes): in Newton here, in the
+  // pressure solve (assemble_pressure_system) and in the final velocities.
+  if (options_.extend_weak_solid_nodes)
+    weak_solid_nodes_ = find_weak_solid_nodes<dim>(grid_, solid_, state.mass, state.clamped, state.fixed_axes);
+  last_.extended_solid_nodes = weak_solid_nodes_.size();
   SolidLinearisation linearisation;
   const NewtonResult result = solid_step(grid_, solid_, materials_, solid_.body, state, dt, options_.newton, node_velocity_star_,
                                          options_.solid_stiffness_in_solve ? &linearisation : nullptr,
-                                         options_.solid_time_integration);
+                                         options_.solid_time_integration, &weak_solid_nodes_);
   last_.newton_iterations = result.iterations;
   last_.newton_cg_iterations = result.cg_iterations;
   if (!result.converged)

@@ -102,6 +102,7 @@ class SolidIncrementalPotential {
   // Dense node index of free node r, and the free number of a dense node (-1: not free).
   int dense_node(int r) const { return free_node_[r]; }
   int free_number(int dense) const { return free_number_[dense]; }
+  const std::vector<int>& free_numbers() const { return free_number_; }
 
   // v^n on the free nodes, wall-held components at zero: the usual starting guess.
   Vector initial_velocity() const {

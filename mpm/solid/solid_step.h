@@ -18,6 +18,7 @@
 
 #include "solid/incremental_potential.h"
 #include "solid/projected_newton.h"
+#include "solid/weak_node_extension.h"
 
 namespace iqmpm {
 
@@ -32,17 +33,29 @@ struct SolidLinearisation {
 // Grid::nodes() (clamped nodes: their prescribed velocity; inactive nodes: v^n unchanged).
 // Particle p uses materials[material_of_particle[p]] (empty: materials[0]). With
 // `linearisation`, also the Hessian at v*. `rule`: the potential's time integration (the
-// midpoint rule reads nodes.start_velocity).
+// midpoint rule reads nodes.start_velocity). `weak_nodes` (null or empty: none): nodes whose
+// velocity is the extrapolation of their block's (weak_node_extension.h); Newton then runs
+// over the other nodes. The linearisation is the un-extended potential's.
 template <int dim, class Material>
 NewtonResult solid_step(const Grid<dim>& grid, const Particles<dim>& particles, std::vector<Material> materials,
                         std::vector<int> material_of_particle, const SolidNodes<dim>& nodes, Real dt,
                         const ProjectedNewtonOptions& options, std::vector<Vec<dim>>& node_velocity,
                         SolidLinearisation* linearisation = nullptr,
-                        SolidTimeIntegration rule = SolidTimeIntegration::implicit_euler) {
-  const SolidIncrementalPotential<dim, Material> potential(grid, particles, std::move(materials),
-                                                           std::move(material_of_particle), nodes, dt, rule);
+                        SolidTimeIntegration rule = SolidTimeIntegration::implicit_euler,
+                        const WeakSolidNodes* weak_nodes = nullptr) {
+  using Potential = SolidIncrementalPotential<dim, Material>;
+  const Potential potential(grid, particles, std::move(materials), std::move(material_of_particle), nodes, dt, rule);
   auto v = potential.initial_velocity();
-  const NewtonResult result = minimize_projected_newton(potential, v, options);
+  NewtonResult result;
+  if (weak_nodes && !weak_nodes->empty()) {
+    const WeakNodeExtension extension = weak_node_extension<dim>(*weak_nodes, potential.free_numbers());
+    const ExtendedPotential<Potential> extended(potential, extension);
+    auto x = extended.initial_velocity();
+    result = minimize_projected_newton(extended, x, options);
+    v = extended.expand(x);
+  } else {
+    result = minimize_projected_newton(potential, v, options);
+  }
   potential.scatter(v, node_velocity);
   if (linearisation && result.converged) {
     linearisation->hessian = potential.hessian(v, true);

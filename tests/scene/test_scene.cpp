@@ -229,6 +229,10 @@ TYPED_TEST(SceneSolidTest, CrossOptionRulesAreCheckedWhenReading) {
   expect_rejected(doc, {"'experimental.solid_response' = \"stiffness\"", "ldlt"});
   doc["solver"] = {{"method", "ldlt"}};
   EXPECT_EQ(read_scene(doc).experimental.solid_response, SolidResponse::stiffness);
+  doc["solid_weak_nodes"] = "extended";
+  expect_rejected(doc, {"'experimental.solid_response' = \"stiffness\"", "solid_weak_nodes = \"free\""});
+  doc["solid_weak_nodes"] = "gone";
+  expect_rejected(doc, {"'solid_weak_nodes'", "extended", "free"});
   doc = this->solid_scene();
   doc["end_time"] = 1e-300;
   expect_rejected(doc, {"'end_time'", "dt_min"});
