@@ -8,7 +8,9 @@ whose edge is square to the beam, the root at (0.25, 0.75) m in a 1 m box, dx 0.
 dt_max 1 ms, 2 s. Probes `tip_dx`, `tip_dy` at the tip's centre: the sag normal to the beam
 is tip_dx n_x + tip_dy n_y, n = (sin a, cos a) for a beam pointing down at a degrees; beam
 theory gives 3.386 mm x cos(a) (benchmarks.md cantilever). Found a beam across the grid
-too soft at 2 particles per axis (docs/journal.md, 2026-12-03).
+too soft at 2 particles per axis with the weak solid nodes free (the default); add
+`--set solid_weak_nodes=extended` for the extended B-splines (docs/method.md#weak-solid-nodes).
+The clamp's node staircase and, at 45 deg, the seeding's staircase stay in the sag.
 """
 import json
 import math

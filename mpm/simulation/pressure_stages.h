@@ -141,12 +141,14 @@ void Simulation<dim>::assemble_pressure_system(Real dt) {
 // lumped by the weights: m_j + sum_i e_ij m_i, the row sums of E^T M E, with which the
 // solve changes the solid's momentum by exactly the constraints' impulse. A block node whose
 // lumped mass would fall below half its own (large negative weights on a heavy weak node)
-// takes m_j + sum_i e_ij^2 m_i instead, the diagonal of E^T M E, which is positive.
+// takes m_j + sum_i e_ij^2 m_i instead, the diagonal of E^T M E, which is positive (there
+// the momentum change is the impulse only approximately).
 template <int dim>
 std::vector<std::vector<std::pair<int, Real>>> Simulation<dim>::weak_solid_node_columns(Eigen::VectorXd& inverse_mass) const {
   std::vector<std::vector<std::pair<int, Real>>> columns;
   const WeakSolidNodes& weak = weak_solid_nodes_;
   if (weak.empty() || !has_solids()) return columns;
+  assert(solid_hessian_nodes_.empty() && "solid_weak_nodes = extended with the solid's stiffness in the solve (scene.cpp rejects it)");
   const int ns = solid_ops_.velocity_dofs();
   columns.resize(std::size_t(ns) * dim);
   std::vector<Real> lumped(ns, 0), squared(ns, 0);
@@ -292,7 +294,11 @@ void Simulation<dim>::update_grid_velocities() {
     node_velocity_ = node_velocity_star_;
     for (int d = 0; d < solid_ops_.velocity_dofs(); ++d)
       for (int a = 0; a < dim; ++a) node_velocity_[solid_ops_.node_of_dof[d]][a] = velocity_next_[d * dim + a];
-    weak_solid_nodes_.extend(node_velocity_);
+    if (!weak_solid_nodes_.empty()) {  // the weak nodes' v^{n+1} is their blocks' (v* + nothing in the solve)
+      weak_solid_nodes_.extend(node_velocity_);
+      for (int k : weak_solid_nodes_.node)
+        for (int a = 0; a < dim; ++a) velocity_next_[solid_ops_.dof_of_node[k] * dim + a] = node_velocity_[k][a];
+    }
     // A fluid particle that strayed inside a solid takes the solid's velocity from the
     // corners that move with it (coupling.solid_corner_fraction).
     if (has_fluid() && !solid_corners_.empty()) {

@@ -128,6 +128,9 @@ class Simulation {
   // The last step's discrete objects, for tests and diagnostics.
   const FluidOperators<dim>& fluid_operators() const { return ops_; }
   const InterfaceOperators<dim>& interface_operators() const { return iq_ops_; }
+  const SolidOperators<dim>& solid_operators() const { return solid_ops_; }
+  const WeakSolidNodes& weak_solid_nodes() const { return weak_solid_nodes_; }  // solid_weak_nodes = extended
+  const std::vector<Vec<dim>>& solid_node_velocity() const { return node_velocity_; }  // v_s^{n+1}, dense over nodes
   const PressureSystem& pressure_system() const { return system_; }
   const Eigen::VectorXd& pressure_solution() const { return lambda_; }
   const Eigen::VectorXd& grid_velocity_before_projection() const { return velocity_star_; }

@@ -34,6 +34,13 @@ void Simulation<dim>::solve_solid_momentum(Real dt) {
       if (slip_[a][1] && i[a] >= grid_.cells[a] - 1 && v[a] >= 0) state.fixed_axes[k] |= std::uint8_t(1u << a);
     }
   }
+  // Weak nodes by extrapolation (method.md#weak-solid-nodes): in the midpoint rule's start
+  // velocity and Newton here, in the pressure solve (assemble_pressure_system) and in the
+  // final velocities (update_grid_velocities).
+  weak_solid_nodes_ = options_.extend_weak_solid_nodes
+                          ? find_weak_solid_nodes<dim>(grid_, solid_, state.mass, state.clamped, state.fixed_axes)
+                          : WeakSolidNodes{};
+  last_.extended_solid_nodes = weak_solid_nodes_.size();
   // The midpoint rule's start velocity: v^n before this step's gravity (P2G added dt g to
   // every node's momentum), the wall-held components at zero; a clamped node's is its
   // prescribed velocity, zero here (the scene's clamps hold still), as G2P's mean needs.
@@ -47,6 +54,7 @@ void Simulation<dim>::solve_solid_momentum(Real dt) {
       for (int a = 0; a < dim; ++a)
         if (state.fixed_axes[k] & (1u << a)) node_start_velocity_[k][a] = 0;
     }
+    weak_solid_nodes_.extend(node_start_velocity_);
     state.start_velocity = node_start_velocity_;
   }
   // Every node with mass clamped (a fixed obstacle): nothing to solve, v* = 0.
@@ -56,17 +64,11 @@ void Simulation<dim>::solve_solid_momentum(Real dt) {
     any_free = state.mass[k] > 0 && !clamped;
   }
   solid_hessian_nodes_.clear();
-  weak_solid_nodes_ = WeakSolidNodes{};
   if (!any_free) {
     node_velocity_star_.assign(nodes.size(), Vec<dim>::Zero());
     wall_held_axes_ = std::move(state.fixed_axes);
     return;
   }
-  // Weak nodes by extrapolation (method.md#weak-solid-nodes): in Newton here, in the
-  // pressure solve (assemble_pressure_system) and in the final velocities.
-  if (options_.extend_weak_solid_nodes)
-    weak_solid_nodes_ = find_weak_solid_nodes<dim>(grid_, solid_, state.mass, state.clamped, state.fixed_axes);
-  last_.extended_solid_nodes = weak_solid_nodes_.size();
   SolidLinearisation linearisation;
   const NewtonResult result = solid_step(grid_, solid_, materials_, solid_.body, state, dt, options_.newton, node_velocity_star_,
                                          options_.solid_stiffness_in_solve ? &linearisation : nullptr,

@@ -13,20 +13,25 @@
 //
 // l_0..l_2 the Lagrange polynomials on the block's three nodes b_a, b_a + 1, b_a + 2 of
 // axis a. The extrapolation reproduces quadratic fields, so the space keeps its order, and
-// sums to one, so momentum is kept. The solid step then minimises its potential over the
-// kept unknowns x: v = E x (ExtendedPotential below); the rest of the step (pressure solve,
-// G2P) sees every node as before.
+// sums to one, so momentum is kept. It must hold through the whole step, else the weak
+// nodes relieve the face particles in whichever stage leaves them free: the solid step
+// minimises its potential over the kept unknowns x, v = E x (ExtendedPotential below); the
+// pressure solve moves the weak nodes' constraint columns to their blocks
+// (Simulation::weak_solid_node_columns); the final velocities are extended (WeakSolidNodes::extend).
 //
 // A cell counts as filled when its particles' current volume is at least 3/4 of the cell:
 // at 2 particles per axis, one particle of a cell's four may have drifted out. Nodes with a
 // wall-held component stay kept (their Dirichlet projection stays in place), and only
-// free nodes without a held component are block nodes. A weak node with no such block
-// whose centre lies within two nodes of it along every axis stays kept.
+// free nodes without a held component are block nodes. A node belongs to a body when only
+// that body's particles reach it; a weak node and its block belong to the same body (a
+// body's face never moves with another body), and a weak node that two bodies reach, or
+// with no block whose centre lies within two nodes of it along every axis, stays kept.
 #pragma once
 
 #include <Eigen/SparseCore>
 
 #include <array>
+#include <cassert>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -34,6 +39,7 @@
 
 #include "core/types.h"
 #include "grid/grid.h"
+#include "grid/kernels.h"
 #include "particles/particles.h"
 
 namespace iqmpm {
@@ -85,6 +91,19 @@ WeakSolidNodes find_weak_solid_nodes(const Grid<dim>& grid, const Particles<dim>
   }
   const Real filled = (Real(0.75) - Real(1e-9)) * grid.cell_volume();  // 6 of 8 particles count
 
+  // The body that reaches each node: -1 none, -2 several (Particles::body; empty: one body).
+  std::vector<int> node_body(nodes.size(), -1);
+  for (std::size_t p = 0; p < particles.size(); ++p) {
+    const int body = particles.body.empty() ? 0 : particles.body[p];
+    const auto stencil = quadratic_stencil<dim>(grid.to_cells(particles.position[p]), grid.dx);
+    for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
+      const IVec<dim> j = stencil.base + offset;
+      if (!nodes.contains(j)) return;
+      int& owner = node_body[nodes.index(j)];
+      owner = owner == -1 || owner == body ? body : -2;
+    });
+  }
+
   std::vector<char> weak(nodes.size(), 0), block_node(nodes.size(), 0);
   for (int k = 0; k < nodes.size(); ++k) {
     const bool free = mass[k] > 0 && (clamped.empty() || !clamped[k]);
@@ -106,6 +125,7 @@ WeakSolidNodes find_weak_solid_nodes(const Grid<dim>& grid, const Particles<dim>
   for (int k = 0; k < nodes.size(); ++k) {
     if (!weak[k]) continue;
     const IVec<dim> i = nodes.multi_index(k);
+    const int body = node_body[k];
     int best = std::numeric_limits<int>::max();
     IVec<dim> best_corner = IVec<dim>::Zero();
     for_each_offset<dim, 5>([&](const IVec<dim>& shift) {
@@ -115,10 +135,11 @@ WeakSolidNodes find_weak_solid_nodes(const Grid<dim>& grid, const Particles<dim>
       bool all = true;
       for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
         const IVec<dim> j = corner + offset;
-        all = all && nodes.contains(j) && block_node[nodes.index(j)];
+        all = all && nodes.contains(j) && block_node[nodes.index(j)] && node_body[nodes.index(j)] == body;
       });
       if (all) best = distance, best_corner = corner;
     });
+    if (body < 0) best = std::numeric_limits<int>::max();
     if (best == std::numeric_limits<int>::max()) {
       ++out.unextended;
       continue;
@@ -150,7 +171,10 @@ WeakNodeExtension weak_node_extension(const WeakSolidNodes& weak, const std::vec
   int free_count = 0;
   for (int r : free_number) free_count = std::max(free_count, r + 1);
   std::vector<int> weak_of_free(free_count, -1);
-  for (int i = 0; i < weak.size(); ++i) weak_of_free[free_number[weak.node[i]]] = i;
+  for (int i = 0; i < weak.size(); ++i) {
+    assert(free_number[weak.node[i]] >= 0);
+    weak_of_free[free_number[weak.node[i]]] = i;
+  }
   std::vector<int> kept_number(free_count, -1);
   WeakNodeExtension out;
   int kept = 0;
@@ -167,8 +191,11 @@ WeakNodeExtension weak_node_extension(const WeakSolidNodes& weak, const std::vec
         entries.emplace_back(dim * r + a, dim * kept_number[r] + a, Real(1));
         continue;
       }
-      for (int j = weak.parent_start[i]; j < weak.parent_start[i + 1]; ++j)
+      for (int j = weak.parent_start[i]; j < weak.parent_start[i + 1]; ++j) {
+        assert(free_number[weak.parent[j]] >= 0 && kept_number[free_number[weak.parent[j]]] >= 0 &&
+               "weak nodes found with another mass or clamp array than the potential's");
         entries.emplace_back(dim * r + a, dim * kept_number[free_number[weak.parent[j]]] + a, weak.weight[j]);
+      }
     }
   out.matrix.resize(dim * free_count, dim * kept);
   out.matrix.setFromTriplets(entries.begin(), entries.end());
