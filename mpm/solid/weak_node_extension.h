@@ -212,8 +212,8 @@ class ExtendedPotential {
   using SparseMatrix = typename Potential::SparseMatrix;
 
   ExtendedPotential(const Potential& potential, const WeakNodeExtension& extension)
-      : potential_(potential), E_(extension.matrix), kept_(extension.kept_unknowns) {
-    squared_ = E_.cwiseAbs2();
+      : potential_(potential), E_(extension.matrix), Et_(extension.matrix.transpose()), kept_(extension.kept_unknowns) {
+    squared_ = Et_.cwiseAbs2();
   }
 
   int unknowns() const { return int(E_.cols()); }
@@ -227,11 +227,10 @@ class ExtendedPotential {
   }
   Real gradient_scale() const { return potential_.gradient_scale(); }
   Real energy(const Vector& x) const { return potential_.energy(expand(x)); }
-  Vector gradient(const Vector& x) const { return E_.transpose() * potential_.gradient(expand(x)); }
+  Vector gradient(const Vector& x) const { return Et_ * potential_.gradient(expand(x)); }
   SparseMatrix hessian(const Vector& x, bool project_to_psd) const {
     const SparseMatrix H = potential_.hessian(expand(x), project_to_psd);
-    const SparseMatrix Et = E_.transpose();
-    return SparseMatrix(Et * H * E_);
+    return SparseMatrix(Et_ * H * E_);
   }
 
   struct Linearization {
@@ -240,18 +239,19 @@ class ExtendedPotential {
   };
   Linearization linearize(const Vector& x, bool project_to_psd) const {
     Linearization out{potential_.linearize(expand(x), project_to_psd), Vector()};
-    out.diagonal = squared_.transpose() * out.full.diagonal;
+    out.diagonal = squared_ * out.full.diagonal;
     return out;
   }
   Vector hessian_product(const Linearization& linear, const Vector& y) const {
-    return E_.transpose() * potential_.hessian_product(linear.full, expand(y));
+    return Et_ * potential_.hessian_product(linear.full, expand(y));
   }
 
  private:
   const Potential& potential_;
   const typename WeakNodeExtension::SparseMatrix& E_;
+  typename WeakNodeExtension::SparseMatrix Et_;       // E^T, row-major: the products by rows
   std::vector<int> kept_;
-  typename WeakNodeExtension::SparseMatrix squared_;
+  typename WeakNodeExtension::SparseMatrix squared_;  // (E^T)^2 entrywise, for the diagonal
 };
 
 }  // namespace iqmpm
