@@ -32,7 +32,6 @@
 
 #include <array>
 #include <cassert>
-#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <vector>
@@ -41,6 +40,7 @@
 #include "grid/grid.h"
 #include "grid/kernels.h"
 #include "particles/particles.h"
+#include "particles/volume_per_cell.h"
 
 namespace iqmpm {
 
@@ -81,14 +81,7 @@ WeakSolidNodes find_weak_solid_nodes(const Grid<dim>& grid, const Particles<dim>
                                      const std::vector<std::uint8_t>& fixed_axes) {
   const GridLayout<dim> nodes = grid.nodes();
   const GridLayout<dim> cells = grid.dual_cells();
-  std::vector<Real> volume(cells.size(), 0);
-  for (std::size_t p = 0; p < particles.size(); ++p) {
-    IVec<dim> cell;
-    const Vec<dim> xi = grid.to_cells(particles.position[p]);
-    for (int a = 0; a < dim; ++a) cell[a] = int(std::floor(xi[a]));
-    if (cells.contains(cell))
-      volume[cells.index(cell)] += particles.initial_volume[p] * particles.deformation_gradient[p].determinant();
-  }
+  const std::vector<Real> volume = particle_volume_per_cell(grid, particles, /*current_volume=*/true);
   const Real filled = (Real(0.75) - Real(1e-9)) * grid.cell_volume();  // 6 of 8 particles count
 
   // The body that reaches each node: -1 none, -2 several (Particles::body; empty: one body).
