@@ -29,6 +29,10 @@ class StateArchive {
   const std::vector<std::int64_t>& integers(const std::string& name) const { return find(integers_, name); }
   const std::vector<std::uint8_t>& bytes(const std::string& name) const { return find(bytes_, name); }
 
+  bool contains(const std::string& name) const {
+    return doubles_.count(name) > 0 || integers_.count(name) > 0 || bytes_.count(name) > 0;
+  }
+
   // Atomic: `path`.tmp, then renamed to `path`.
   void write(const std::string& path) const;
   // InputError naming the file when it is missing, not HDF5, or not a checkpoint.

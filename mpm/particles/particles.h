@@ -22,6 +22,7 @@ struct Particles {
   std::vector<Real> ghost_J;  // ghost-matrix J_g (method.md §1)
   std::vector<int> body;      // which solid
   std::vector<Vec<dim>> initial_position;  // solid: where it was seeded (rotation probes)
+  std::vector<Vec<dim>> acceleration;      // solid: the last step's mean acceleration (solid_step_error; else empty)
 
   std::size_t size() const { return position.size(); }
   bool empty() const { return position.empty(); }
@@ -47,6 +48,7 @@ struct Particles {
     apply(ghost_J, order, previous ? &previous->ghost_J : nullptr);
     apply(body, order, previous ? &previous->body : nullptr);
     apply(initial_position, order, previous ? &previous->initial_position : nullptr);
+    apply(acceleration, order, previous ? &previous->acceleration : nullptr);
   }
 
  private:

@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <memory>
+#include <stdexcept>
 
 #include "core/config.h"
 #include "core/errors.h"
@@ -84,14 +85,18 @@ std::vector<std::vector<double>> unflatten_rows(const std::vector<double>& flat,
 
 // One step from t: a step that fails in a solver or fails a health check is taken again
 // from its start with half the dt, up to health.max_retries times and not below dt_min
-// (docs/method.md#health-checks); then NumericalFailure with the diagnosis. Returns the
-// dt taken; `retries` counts the halvings.
+// (docs/method.md#health-checks); then NumericalFailure with the diagnosis. A first
+// attempt whose solid error estimate is far above solid_step_error is taken again once with
+// the dt the estimate asks for (method.md#solid-time-step). Returns the dt taken; `retries`
+// counts the halvings, `retakes` the solid error's.
 template <int dim>
-double take_checked_step(Simulation<dim>& sim, HealthChecks<dim>* health, const SceneSpec& scene, double t, double dt,
-                         long step, long& retries, StageTimer& timer) {
+double take_checked_step(Simulation<dim>& sim, HealthChecks<dim>* health, const SceneSpec& scene,
+                         const TimeStepPolicy& policy, double t, double dt, long step, long& retries, long& retakes,
+                         StageTimer& timer) {
   for (int attempt = 0;; ++attempt) {
     const bool may_retry = attempt < scene.health.max_retries && dt / 2 >= scene.dt_min;
-    if (may_retry) sim.keep_step_start();  // free: the step's sort hands over the arrays it replaces
+    const bool may_retake = attempt == 0 && scene.solid_step_error > 0;
+    if (may_retry || may_retake) sim.keep_step_start();  // free: the step's sort hands over the arrays it replaces
     std::string problem;
     try {
       sim.step(dt);
@@ -99,6 +104,15 @@ double take_checked_step(Simulation<dim>& sim, HealthChecks<dim>* health, const 
       if (health) problem = health->violation(sim);
     } catch (const NumericalFailure& failure) {
       problem = failure.what();
+    }
+    if (problem.empty() && may_retake && policy.rejects_solid_step(sim)) {
+      const double retake_dt = std::clamp(double(policy.stable_dt(sim)), double(scene.dt_min), dt);
+      logger()->debug("step {} at t = {:.6g} s with dt = {:.3g} s: solid error {:.3g} of the tolerance; taking it again "
+                      "with dt = {:.3g} s", step, t, dt, sim.solid_step_error().relative / scene.solid_step_error, retake_dt);
+      sim.return_to_step_start();
+      dt = retake_dt;
+      ++retakes;
+      continue;
     }
     if (problem.empty()) return dt;
     if (!may_retry)
@@ -124,7 +138,7 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
   const double initial_particle_volume = fluid_particle_volume(sim);
 
   // steps.csv: the pressure solve of every step (benchmarks.md, "Output contract").
-  const std::vector<std::string> step_columns{"step", "t", "dt", "unknowns", "iterations", "initial_residual", "solve_s", "warm_start_s", "contact_rounds", "energy", "constraint_residual"};
+  const std::vector<std::string> step_columns{"step", "t", "dt", "unknowns", "iterations", "initial_residual", "solve_s", "warm_start_s", "contact_rounds", "energy", "constraint_residual", "solid_error"};
   std::vector<std::vector<double>> step_rows;
   result.columns.push_back("t");
   for (std::size_t i = 0; i < probes.size(); ++i) result.columns.push_back(probes.name(i));
@@ -137,6 +151,7 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
   Json resumed_from = Json::array();  // where each resume started
   RunStatistics statistics;
   long dt_retries = 0;
+  long solid_error_retakes = 0;  // steps taken again for their solid error (solid_step_error)
   StageTimer checks_timer;  // the health checks' cost (a stage of summary.json's stage_seconds)
   // Of the seeded particles too (their pieces, the energy scale).
   std::unique_ptr<HealthChecks<dim>> health;
@@ -151,9 +166,13 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
       earlier_wall_s = state.at("wall_time_s").get<double>();
       resumed_from = state.at("resumed_from");
       dt_retries = state.at("dt_retries").get<long>();
+      solid_error_retakes = state.value("solid_error_retakes", 0L);  // older checkpoints lack it
       checks_timer.add("health checks", state.value("health_checks_s", 0.0));  // older checkpoints lack it
       result.metrics = unflatten_rows(archive.doubles("run.metrics"), result.columns.size());
       step_rows = unflatten_rows(archive.doubles("run.steps"), step_columns.size());
+      if (archive.doubles("run.steps").size() != step_columns.size() * std::size_t(statistics.steps()))
+        throw InputError("the checkpoint's steps table does not have the columns of this version's steps.csv: written by "
+                         "another version of iqmpm; run the scene again");
       sim.restore_state(archive);
       if (health) health->measure_reference(sim);
     } catch (const Json::exception& e) {
@@ -205,6 +224,7 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
                              {"wall_time_s", earlier_wall_s + elapsed()},
                              {"resumed_from", resumed_from},
                              {"dt_retries", dt_retries},
+                             {"solid_error_retakes", solid_error_retakes},
                              {"health_checks_s", checks_timer.total()},
                              {"frames", writer->frames_written()}};
     archive.put("run.metrics", flatten_rows(result.metrics));
@@ -228,7 +248,8 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
       const double next_stop = std::min(next_frame, end_time);
       double dt = policy.next_dt(sim, t, next_stop);
       const double solve_before = sim.timer().seconds("solve"), guess_before = sim.timer().seconds("warm start");
-      dt = take_checked_step(sim, health.get(), scene, t, dt, statistics.steps() + 1, dt_retries, checks_timer);
+      dt = take_checked_step(sim, health.get(), scene, policy, t, dt, statistics.steps() + 1, dt_retries, solid_error_retakes,
+                             checks_timer);
       if (health) health->accept();
       t = policy.advance(t, dt, next_stop);
       statistics.add(sim.last_step());
@@ -236,7 +257,7 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
       step_rows.push_back({double(statistics.steps()), t, dt, double(last.pressure_unknowns), double(last.linear.iterations),
                            last.linear.initial_relative_residual, sim.timer().seconds("solve") - solve_before, sim.timer().seconds("warm start") - guess_before,
                            double(last.contact_rounds), health ? health->energy() : NAN,
-                           health ? health->constraint_residual() : NAN});
+                           health ? health->constraint_residual() : NAN, double(last.solid_step_error)});
       if (pressure_fields) pressure_fields->append(sim.pressure_fields(), dt, statistics.steps(), last.linear.iterations);
       if (writer && std::find(options.dump_steps.begin(), options.dump_steps.end(), statistics.steps()) != options.dump_steps.end())
         dump_pressure_system(sim, options.out_dir, statistics.steps());
@@ -303,6 +324,7 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
       {"threads", omp_get_max_threads()},
       {"version", IQMPM_VERSION},
       {"dt_retries", dt_retries},        // steps taken again with half the dt (docs/method.md#health-checks)
+      {"solid_error_retakes", solid_error_retakes},  // steps taken again for their solid error (method.md#solid-time-step)
       {"energy_scale", health ? Json(health->energy_scale()) : Json(nullptr)},  // of health.energy_growth (J; J/m in 2-D)
       {"checkpoint", last_checkpoint},   // the state checkpoint.h5 holds (null: none written)
       {"resumed_from", resumed_from},    // where each `iqmpm resume` of this run started
@@ -319,7 +341,8 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
   // The unit of every column of metrics.csv and steps.csv.
   Json metric_units = {{"t", "s"}}, step_units = Json::object();
   for (std::size_t i = 0; i < probes.size(); ++i) metric_units[probes.name(i)] = probes.unit(i);
-  const std::vector<const char*> step_column_units{"1", "s", "s", "1", "1", "1", "s", "s", "1", dim == 2 ? "J/m" : "J", "1"};
+  const std::vector<const char*> step_column_units{"1", "s", "s", "1", "1", "1", "s", "s", "1", dim == 2 ? "J/m" : "J", "1", "1"};
+  if (step_column_units.size() != step_columns.size()) throw std::logic_error("steps.csv: a column without a unit");
   for (std::size_t c = 0; c < step_columns.size(); ++c) step_units[step_columns[c]] = step_column_units[c];
   summary["units"] = {{"metrics.csv", metric_units}, {"steps.csv", step_units}};
   result.ok = status == "ok";

@@ -1,7 +1,9 @@
 // The whole time-step policy in one place (method.md §3, time step): dt = cfl dx /
-// max(particle speed, sqrt(|g| dx)), capped at dt_max, then clamped to the next output
-// stop (a frame time or the end) without leaving a sliver step; a dt below dt_min stops
-// the run. There is no sound-speed limit: the solve is implicit.
+// max(particle speed, sqrt(|g| dx)), capped at dt_max and, with solid_step_error, at the
+// dt that keeps the solids' estimated local error at that tolerance
+// (method.md#solid-time-step), then clamped to the next output stop (a frame time or the
+// end) without leaving a sliver step; a dt below dt_min stops the run. There is no
+// sound-speed limit: the solve is implicit.
 #pragma once
 
 #include <algorithm>
@@ -11,15 +13,20 @@
 #include "core/errors.h"
 #include "scene/scene.h"
 #include "simulation/simulation.h"
+#include "solid/step_error.h"
 
 namespace iqmpm {
 
 class TimeStepPolicy {
  public:
   explicit TimeStepPolicy(const SceneSpec& scene)
-      : cfl_(scene.cfl), dt_min_(scene.dt_min), dt_max_(scene.dt_max), end_time_(scene.end_time) {}
+      : cfl_(scene.cfl),
+        dt_min_(scene.dt_min),
+        dt_max_(scene.dt_max),
+        solid_step_error_(scene.solid_step_error),
+        end_time_(scene.end_time) {}
 
-  // dt from the particle speeds alone (no output stop).
+  // dt from the particle speeds and the solids' error (no output stop).
   template <int dim>
   Real stable_dt(const Simulation<dim>& sim) const {
     Real max_speed = 0;
@@ -28,8 +35,18 @@ class TimeStepPolicy {
     // A particle at rest gains sqrt(|g| dx) falling one cell: the floor keeps the first steps safe.
     const Real dx = sim.grid().dx;
     const Real speed = std::max(max_speed, std::sqrt(sim.gravity().norm() * dx));
-    const Real dt = speed > 0 ? cfl_ * dx / speed : dt_max_;
+    Real dt = speed > 0 ? cfl_ * dx / speed : dt_max_;
+    if (solid_step_error_ > 0) dt = std::min(dt, solid_error_dt_limit(sim.solid_step_error(), solid_step_error_));
     return std::min(dt, dt_max_);
+  }
+
+  // A step whose solids' error estimate exceeds the tolerance this many times is taken
+  // again (once) with the dt the estimate asks for: a sudden load (an impact) would
+  // otherwise pass in one step far too long for it.
+  static constexpr Real solid_error_rejection = 4;
+  template <int dim>
+  bool rejects_solid_step(const Simulation<dim>& sim) const {
+    return solid_step_error_ > 0 && sim.solid_step_error().relative > solid_error_rejection * solid_step_error_;
   }
 
   // The step to take from t towards next_stop. Throws NumericalFailure below dt_min.
@@ -51,6 +68,7 @@ class TimeStepPolicy {
 
  private:
   Real cfl_, dt_min_, dt_max_;
+  Real solid_step_error_;  // 0: the solids do not limit dt
   double end_time_;
 };
 

@@ -256,6 +256,17 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
       "2 pi^2 / N of its amplitude a period at N steps a period) or midpoint (second order, keeps a vibration's "
       "energy; undamped, it needs steps that resolve the solid's motion: at large rotation against a wall at the "
       "CFL step it can create energy, which the health checks stop; docs/method.md#solid-time-integration)");
+  scene.solid_step_error = root.number(
+      "solid_step_error", 0, 0, 1,
+      "largest local error of a solid particle's position a step, relative to its body's largest displacement "
+      "since seeding (at least dx / 10), estimated from the change of its acceleration (dt^2 / 12 |a^{n+1} - a^n|, "
+      "Zienkiewicz and Xie); the time step follows it, growing at most 2x a step: a time step that resolves the "
+      "solids' motion (docs/method.md#solid-time-step). A vibration then takes about 2 pi / (12 e)^(1/3) steps a "
+      "period (3.2e-4: 40). 0 = not estimated, the solids do not limit dt");
+  if (!docs && scene.solid_step_error > 0 && scene.solid_time_integration != SolidTimeIntegration::midpoint)
+    throw InputError(fmt::format("scene key 'solid_step_error' = {:g}: the estimate is the midpoint rule's; accepted: 0 "
+                                 "with solid_time_integration = implicit_euler, or solid_time_integration = midpoint",
+                                 scene.solid_step_error));
   scene.extend_weak_solid_nodes = root.option<bool>(
       "solid_weak_nodes", scene.extend_weak_solid_nodes, {{"extended", true}, {"free", false}},
       "the solids' weak nodes, whose quadratic support holds no cell the solid fills: extended (their velocity the "

@@ -146,6 +146,7 @@ struct SceneSpec {
   Real cfl = 0.5;
   Real dt_min = 1e-7, dt_max = 1e-2;
   SolidTimeIntegration solid_time_integration = SolidTimeIntegration::implicit_euler;
+  Real solid_step_error = 0;  // the solids' local error a step, relative to their displacement; 0: not estimated
   bool extend_weak_solid_nodes = false;  // solid_weak_nodes = extended
   std::array<std::array<bool, 2>, 3> slip_walls{};  // [axis][side]: a free-slip wall (else no wall)
   FluidSpec fluid;

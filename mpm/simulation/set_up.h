@@ -46,6 +46,7 @@ inline StepOptions resolve_step_options(const SceneSpec& scene) {
   o.newton.project_hessian = scene.newton.project_hessian;
   o.solid_time_integration = scene.solid_time_integration;
   o.extend_weak_solid_nodes = scene.extend_weak_solid_nodes;
+  o.estimate_solid_step_error = scene.solid_step_error > 0;
   o.gravity_ramp = scene.gravity_ramp;
   o.newton.direct = scene.newton.direction == NewtonDirection::direct ||
                     (scene.newton.direction == NewtonDirection::automatic && scene.dim == 2);

@@ -8,6 +8,7 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -27,6 +28,7 @@
 #include "scene/scene.h"
 #include "solid/ghost_matrix.h"
 #include "solid/projected_newton.h"
+#include "solid/step_error.h"
 #include "solid/weak_node_extension.h"
 #include "transfer/apic.h"
 
@@ -41,6 +43,7 @@ struct StepStats {
   int newton_cg_iterations = 0;
   int extended_solid_nodes = 0;  // weak solid nodes given by extrapolation (solid_weak_nodes = extended)
   Real solid_min_J = 1;  // smallest det F of a solid particle after the step
+  Real solid_step_error = std::numeric_limits<Real>::quiet_NaN();  // solid_step_error's estimate (solid/step_error.h)
   int contact_rounds = 1;  // pressure solves of the step (unilateral interface: active-set rounds)
   bool contact_settled = true;  // unilateral: the active set stopped changing within max_contact_rounds
   int modified_solves = 0;      // unilateral: rounds solved by modifying the LDL^T factor's changed rows
@@ -62,6 +65,7 @@ struct StepOptions {
   ProjectedNewtonOptions newton;             // newton.*
   SolidTimeIntegration solid_time_integration = SolidTimeIntegration::implicit_euler;
   bool extend_weak_solid_nodes = false;      // solid_weak_nodes = extended
+  bool estimate_solid_step_error = false;    // solid_step_error > 0
   Real gravity_ramp = 0;                     // gravity_ramp (s); 0 = full gravity from the start
 };
 
@@ -105,6 +109,8 @@ class Simulation {
   int interface_points() const { return iq_points_.size(); }
   const StageTimer& timer() const { return timer_; }
   const StepStats& last_step() const { return last_; }
+  // The solids' local error of the last step (solid_step_error > 0; solid/step_error.h).
+  const SolidStepError& solid_step_error() const { return solid_step_error_; }
   // Simulated time at the end of the last step (the sum of the steps' dt).
   Real time() const { return time_; }
   // The last step's solution as dense grid fields (the warm start's Map; MPMNet's tensors).
@@ -230,6 +236,7 @@ class Simulation {
   UnknownLocations unknown_locations_;  // of this step's system
   Real time_ = 0;                       // at the end of the step (in progress)
   UnilateralContact contact_;      // unilateral interface: the active set
+  SolidStepError solid_step_error_;  // of the last step (solid_step_error > 0)
 
   StageTimer timer_;
   StepStats last_;
@@ -238,6 +245,7 @@ class Simulation {
     bool requested = false;       // by keep_step_start(), for the next sort
     bool kept = false;            // fluid and solid hold the start of the last step
     Real time = 0;
+    SolidStepError solid_step_error;
     std::vector<std::uint8_t> released_h_cells, released_p_cells;
   } step_start_;
 };

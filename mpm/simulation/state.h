@@ -31,6 +31,7 @@ void save_particles(StateArchive& archive, const std::string& kind, const Partic
   archive.put(kind + ".ghost_J", p.ghost_J);
   archive.put(kind + ".body", widen(p.body));
   archive.put(kind + ".initial_position", flatten(p.initial_position));
+  archive.put(kind + ".acceleration", flatten(p.acceleration));
 }
 
 // The checkpoint's particles of `kind`, which must be as many as the scene seeded.
@@ -47,10 +48,12 @@ Particles<dim> load_particles(const StateArchive& archive, const std::string& ki
   const auto& body = archive.integers(kind + ".body");
   p.body.assign(body.begin(), body.end());
   p.initial_position = unflatten<Vec<dim>>(archive.doubles(kind + ".initial_position"));
+  // A checkpoint written before solid_step_error existed has none: the first step compares with nothing.
+  if (archive.contains(kind + ".acceleration")) p.acceleration = unflatten<Vec<dim>>(archive.doubles(kind + ".acceleration"));
   const std::size_t n = p.position.size();
   const bool solid_attributes_fit = p.deformation_gradient.empty() ||
                                     (p.deformation_gradient.size() == n && p.ghost_J.size() == n && p.body.size() == n &&
-                                     p.initial_position.size() == n);
+                                     p.initial_position.size() == n && (p.acceleration.empty() || p.acceleration.size() == n));
   if (n != seeded || p.velocity.size() != n || p.affine.size() != n || p.mass.size() != n || p.initial_volume.size() != n ||
       !solid_attributes_fit)
     throw InputError(fmt::format("the checkpoint's {} particles ({}) do not match the scene's ({}): a checkpoint of "
@@ -68,6 +71,7 @@ void Simulation<dim>::save_state(StateArchive& archive) const {
   Json& record = archive.record["simulation"];
   record["dim"] = dim;
   record["time"] = time_;
+  record["solid_step_error"] = {solid_step_error_.dt, solid_step_error_.relative, solid_step_error_.displacement_scale};
   Json times = Json::array();
   for (std::size_t i = 0; i < warm_start_.history().size(); ++i) {
     const GridSolution& solution = warm_start_.history()[i];
@@ -95,6 +99,13 @@ void Simulation<dim>::restore_state(const StateArchive& archive) {
   fluid_ = load_particles<dim>(archive, "fluid", fluid_.size());
   solid_ = load_particles<dim>(archive, "solid", solid_.size());
   time_ = record.at("time").get<Real>();
+  solid_step_error_ = SolidStepError{};  // older checkpoints: none measured
+  if (record.contains("solid_step_error")) {
+    const Json& error = record.at("solid_step_error");
+    solid_step_error_.dt = error.at(0).get<Real>();
+    if (error.at(1).is_number()) solid_step_error_.relative = error.at(1).get<Real>();  // NaN is written as null
+    solid_step_error_.displacement_scale = error.at(2).get<std::vector<Real>>();
+  }
   std::deque<GridSolution> history;
   const Json& times = record.at("warm_start_times");
   for (std::size_t i = 0; i < times.size(); ++i) {
@@ -117,6 +128,7 @@ void Simulation<dim>::keep_step_start() {
   step_start_.requested = true;
   step_start_.kept = false;
   step_start_.time = time_;
+  step_start_.solid_step_error = solid_step_error_;
   step_start_.released_h_cells = contact_.released_h_cells();
   step_start_.released_p_cells = contact_.released_p_cells();
 }
@@ -128,6 +140,7 @@ void Simulation<dim>::return_to_step_start() {
   std::swap(solid_, step_start_.solid);
   step_start_.kept = false;
   time_ = step_start_.time;
+  solid_step_error_ = step_start_.solid_step_error;
   contact_.restore_released_cells(step_start_.released_h_cells, step_start_.released_p_cells);
 }
 

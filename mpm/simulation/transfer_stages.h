@@ -65,6 +65,8 @@ void Simulation<dim>::grid_to_particles(Real dt) {
   // configuration its Newton step balanced (solid/incremental_potential.h); v_p and C_p
   // stay those of v^{n+1}.
   const bool midpoint = !node_start_velocity_.empty();
+  std::vector<Vec<dim>> start_velocity;
+  if (options_.estimate_solid_step_error) start_velocity = solid_.velocity;
   std::vector<Mat<dim>> velocity_gradient;
   solid_grid_to_particles(grid_, node_velocity_, solid_, midpoint ? nullptr : &velocity_gradient);
   std::vector<Vec<dim>> displacement_velocity;
@@ -91,6 +93,11 @@ void Simulation<dim>::grid_to_particles(Real dt) {
     throw NumericalFailure(fmt::format("a solid particle inverted (det F = {:.3g} <= 0): the step was too large for the "
                                        "solid's stiffness; lower dt_max or cfl", min_J));
   keep_particles_in_domain(solid_, "solid");
+  if (options_.estimate_solid_step_error) {
+    solid_step_error_ = measure_solid_step_error(solid_, start_velocity, dt, solid_step_error_, int(materials_.size()),
+                                                 Real(0.1) * grid_.dx);
+    last_.solid_step_error = solid_step_error_.relative;
+  }
 }
 
 // §3 step 6 (fluid/position_correction.h). Without solids the correction's constraints

@@ -23,7 +23,8 @@ function(solver_columns csv result)
 endfunction()
 
 foreach(case "dam_break/dam_break.json;0.06;0.1" "elastic_gate/elastic_gate.json;0.02;0.04"
-             "floating_block/floating_block.json;0.1;0.2")
+             "floating_block/floating_block.json;0.1;0.2"
+             "cantilever/cantilever_vibration_adaptive.json;0.2;0.4")
   list(GET case 0 scene)
   list(GET case 1 half)
   list(GET case 2 full)

@@ -236,6 +236,13 @@ TYPED_TEST(SceneSolidTest, CrossOptionRulesAreCheckedWhenReading) {
   doc = this->solid_scene();
   doc["end_time"] = 1e-300;
   expect_rejected(doc, {"'end_time'", "dt_min"});
+  doc = this->solid_scene();
+  doc["solid_step_error"] = 1e-3;  // the estimate is the midpoint rule's
+  expect_rejected(doc, {"'solid_step_error' = 0.001", "midpoint"});
+  doc["solid_time_integration"] = "midpoint";
+  EXPECT_EQ(read_scene(doc).solid_step_error, 1e-3);
+  doc["solid_step_error"] = -1;
+  expect_rejected(doc, {"'solid_step_error'"});
 }
 
 TYPED_TEST(SceneSolidTest, UnknownModelAndMissingShapesAreNamed) {
