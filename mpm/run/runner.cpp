@@ -5,6 +5,7 @@
 #include <unsupported/Eigen/SparseExtra>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <memory>
@@ -87,15 +88,17 @@ std::vector<std::vector<double>> unflatten_rows(const std::vector<double>& flat,
 // from its start with half the dt, up to health.max_retries times and not below dt_min
 // (docs/method.md#health-checks); then NumericalFailure with the diagnosis. A first
 // attempt whose solid error estimate is far above solid_step_error is taken again once with
-// the dt the estimate asks for (method.md#solid-time-step). Returns the dt taken; `retries`
-// counts the halvings, `retakes` the solid error's.
+// the dt the estimate asks for, at most half the dt (so that no sliver is left before a
+// stop) and not below dt_min (method.md#solid-time-step); the retake is not a halving.
+// Returns the dt taken; `retries` counts the halvings, `retakes` the solid error's.
 template <int dim>
 double take_checked_step(Simulation<dim>& sim, HealthChecks<dim>* health, const SceneSpec& scene,
                          const TimeStepPolicy& policy, double t, double dt, long step, long& retries, long& retakes,
                          StageTimer& timer) {
-  for (int attempt = 0;; ++attempt) {
-    const bool may_retry = attempt < scene.health.max_retries && dt / 2 >= scene.dt_min;
-    const bool may_retake = attempt == 0 && scene.solid_step_error > 0;
+  bool retaken = false;
+  for (int halvings = 0;;) {
+    const bool may_retry = halvings < scene.health.max_retries && dt / 2 >= scene.dt_min;
+    const bool may_retake = !retaken && halvings == 0 && scene.solid_step_error > 0;
     if (may_retry || may_retake) sim.keep_step_start();  // free: the step's sort hands over the arrays it replaces
     std::string problem;
     try {
@@ -106,20 +109,25 @@ double take_checked_step(Simulation<dim>& sim, HealthChecks<dim>* health, const 
       problem = failure.what();
     }
     if (problem.empty() && may_retake && policy.rejects_solid_step(sim)) {
-      const double retake_dt = std::clamp(double(policy.stable_dt(sim)), double(scene.dt_min), dt);
-      logger()->debug("step {} at t = {:.6g} s with dt = {:.3g} s: solid error {:.3g} of the tolerance; taking it again "
-                      "with dt = {:.3g} s", step, t, dt, sim.solid_step_error().relative / scene.solid_step_error, retake_dt);
-      sim.return_to_step_start();
-      dt = retake_dt;
-      ++retakes;
-      continue;
+      const double retake_dt = std::min(double(policy.stable_dt(sim)), dt / 2);
+      if (retake_dt >= scene.dt_min) {
+        logger()->debug("step {} at t = {:.6g} s with dt = {:.3g} s: solid error {:.3g} of the tolerance; taking it "
+                        "again with dt = {:.3g} s", step, t, dt, sim.solid_step_error().relative / scene.solid_step_error,
+                        retake_dt);
+        sim.return_to_step_start();
+        dt = retake_dt;
+        retaken = true;
+        ++retakes;
+        continue;
+      }
     }
     if (problem.empty()) return dt;
     if (!may_retry)
-      throw NumericalFailure(attempt == 0 ? problem : fmt::format("{} (after {} halvings of dt, at dt = {:.3g} s)", problem, attempt, dt));
+      throw NumericalFailure(halvings == 0 ? problem : fmt::format("{} (after {} halvings of dt, at dt = {:.3g} s)", problem, halvings, dt));
     logger()->warn("step {} at t = {:.6g} s with dt = {:.3g} s: {}; taking it again with dt = {:.3g} s", step, t, dt, problem, dt / 2);
     sim.return_to_step_start();
     dt /= 2;
+    ++halvings;
     ++retries;
   }
 }
@@ -139,6 +147,8 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
 
   // steps.csv: the pressure solve of every step (benchmarks.md, "Output contract").
   const std::vector<std::string> step_columns{"step", "t", "dt", "unknowns", "iterations", "initial_residual", "solve_s", "warm_start_s", "contact_rounds", "energy", "constraint_residual", "solid_error"};
+  const std::array<const char*, 12> step_column_units{"1", "s", "s", "1", "1", "1", "s", "s", "1", dim == 2 ? "J/m" : "J", "1", "1"};
+  if (step_column_units.size() != step_columns.size()) throw std::logic_error("steps.csv: a column without a unit");
   std::vector<std::vector<double>> step_rows;
   result.columns.push_back("t");
   for (std::size_t i = 0; i < probes.size(); ++i) result.columns.push_back(probes.name(i));
@@ -169,10 +179,21 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
       solid_error_retakes = state.value("solid_error_retakes", 0L);  // older checkpoints lack it
       checks_timer.add("health checks", state.value("health_checks_s", 0.0));  // older checkpoints lack it
       result.metrics = unflatten_rows(archive.doubles("run.metrics"), result.columns.size());
-      step_rows = unflatten_rows(archive.doubles("run.steps"), step_columns.size());
-      if (archive.doubles("run.steps").size() != step_columns.size() * std::size_t(statistics.steps()))
-        throw InputError("the checkpoint's steps table does not have the columns of this version's steps.csv: written by "
-                         "another version of iqmpm; run the scene again");
+      // A checkpoint written before solid_error existed has the columns before it (NaN there).
+      const std::vector<std::string> stored_columns =
+          state.contains("step_columns") ? state.at("step_columns").get<std::vector<std::string>>()
+                                         : std::vector<std::string>(step_columns.begin(), step_columns.end() - 1);
+      const std::vector<double>& stored_steps = archive.doubles("run.steps");
+      if (stored_steps.size() != stored_columns.size() * std::size_t(statistics.steps()))
+        throw InputError("the checkpoint's steps table does not match its step count: a damaged checkpoint");
+      for (const auto& stored_row : unflatten_rows(stored_steps, stored_columns.size())) {
+        std::vector<double> row(step_columns.size(), NAN);
+        for (std::size_t c = 0; c < stored_columns.size(); ++c) {
+          const auto it = std::find(step_columns.begin(), step_columns.end(), stored_columns[c]);
+          if (it != step_columns.end()) row[std::size_t(it - step_columns.begin())] = stored_row[c];
+        }
+        step_rows.push_back(std::move(row));
+      }
       sim.restore_state(archive);
       if (health) health->measure_reference(sim);
     } catch (const Json::exception& e) {
@@ -225,6 +246,7 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
                              {"resumed_from", resumed_from},
                              {"dt_retries", dt_retries},
                              {"solid_error_retakes", solid_error_retakes},
+                             {"step_columns", step_columns},
                              {"health_checks_s", checks_timer.total()},
                              {"frames", writer->frames_written()}};
     archive.put("run.metrics", flatten_rows(result.metrics));
@@ -341,8 +363,6 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
   // The unit of every column of metrics.csv and steps.csv.
   Json metric_units = {{"t", "s"}}, step_units = Json::object();
   for (std::size_t i = 0; i < probes.size(); ++i) metric_units[probes.name(i)] = probes.unit(i);
-  const std::vector<const char*> step_column_units{"1", "s", "s", "1", "1", "1", "s", "s", "1", dim == 2 ? "J/m" : "J", "1", "1"};
-  if (step_column_units.size() != step_columns.size()) throw std::logic_error("steps.csv: a column without a unit");
   for (std::size_t c = 0; c < step_columns.size(); ++c) step_units[step_columns[c]] = step_column_units[c];
   summary["units"] = {{"metrics.csv", metric_units}, {"steps.csv", step_units}};
   result.ok = status == "ok";
