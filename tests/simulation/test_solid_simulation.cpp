@@ -54,6 +54,14 @@ Oscillation analyse(const RunResult& result, int column) {
   return out;
 }
 
+// The lowest and highest value of metric column 2 (tip_dy) over [from, to].
+std::array<double, 2> swing_range(const RunResult& result, double from, double to) {
+  double lo = INFINITY, hi = -INFINITY;
+  for (const auto& row : result.metrics)
+    if (row[0] >= from && row[0] <= to) lo = std::min(lo, row[2]), hi = std::max(hi, row[2]);
+  return {lo, hi};
+}
+
 // The step start kept for a retry (run/runner.cpp take_checked_step) is handed over by
 // the step's particle sort instead of copied (simulation/state.h): after a step,
 // return_to_step_start() gives back the particles exactly as they were, and the step
@@ -150,13 +158,7 @@ TEST(SolidSimulationTest, MidpointRuleKeepsTheCantileversVibration) {
                   {});
     EXPECT_TRUE(result.ok) << result.summary["status"];
     EXPECT_EQ(result.columns[2], "tip_dy");
-    auto range = [&](double from, double to) {
-      double lo = INFINITY, hi = -INFINITY;
-      for (const auto& row : result.metrics)
-        if (row[0] >= from && row[0] <= to) lo = std::min(lo, row[2]), hi = std::max(hi, row[2]);
-      return std::array<double, 2>{lo, hi};
-    };
-    const auto first = range(0, period), third = range(2 * period, 3 * period);
+    const auto first = swing_range(result, 0, period), third = swing_range(result, 2 * period, 3 * period);
     return Swing{std::sqrt((third[1] - third[0]) / (first[1] - first[0])), 0.5 * (third[0] + third[1]), analyse(result, 2)};
   };
   const Swing midpoint = swing_of("midpoint"), euler = swing_of("implicit_euler");
@@ -193,13 +195,8 @@ TEST(SolidSimulationTest, StepErrorControlResolvesTheCantileversVibration) {
                                        {});
     EXPECT_TRUE(result.ok) << result.summary["status"];
     EXPECT_EQ(result.columns[2], "tip_dy");
-    auto range = [&](double from, double to) {
-      double lo = INFINITY, hi = -INFINITY;
-      for (const auto& row : result.metrics)
-        if (row[0] >= from && row[0] <= to) lo = std::min(lo, row[2]), hi = std::max(hi, row[2]);
-      return hi - lo;
-    };
-    return Run{analyse(result, 2), std::sqrt(range(2 * period, 3 * period) / range(0, period)),
+    const auto first = swing_range(result, 0, period), third = swing_range(result, 2 * period, 3 * period);
+    return Run{analyse(result, 2), std::sqrt((third[1] - third[0]) / (first[1] - first[0])),
                result.summary["steps"].get<double>() * period / 0.5, result.summary["solid_error_retakes"].get<long>(),
                result.summary["dt_retries"].get<long>()};
   };
