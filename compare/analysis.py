@@ -16,8 +16,8 @@ import numpy as np
 from compare import fields as fld
 from compare import plots
 from compare.convergence import observed_order, richardson
-from compare.errors import (Series, SeriesError, constant_series, peak, relative_error,
-                            series_error)
+from compare.errors import (Series, SeriesError, constant_series, interval_means, peak,
+                            relative_error, series_error)
 from compare.io import CompareError, Run, cell_field_at, particle_frame_at
 from compare.registry import (Benchmark, ConstantReference, CsvReference, MetricSpec,
                               Reference, ScalarSpec, generic_metrics)
@@ -639,9 +639,14 @@ def _series_section(result: BenchmarkResult, spec: MetricSpec, base: Run, foam: 
     if spec.against_foam and foam is not None and foam.metrics is not None:
         if spec.column in foam.metrics.columns:
             try:
-                err = series_error(mine, _ours_series(foam, spec))
+                theirs = _ours_series(foam, spec)
+                err = series_error(mine, theirs)
                 result.series_rows.append(SeriesRow(spec.column, base.label, foam.label,
                                                     spec.unit, "s", err, spec.absolute))
+                if spec.per_step:
+                    err = series_error(interval_means(mine, theirs.t), theirs)
+                    result.series_rows.append(SeriesRow(spec.column, f"{base.label}, interval means",
+                                                        foam.label, spec.unit, "s", err, spec.absolute))
             except CompareError as exc:
                 result.notes.append(f"{spec.column} vs {foam.label}: {exc}")
         else:

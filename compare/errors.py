@@ -132,6 +132,29 @@ def series_error(ours: Series, ref: Series) -> SeriesError:
     return SeriesError((lo, hi), len(t), rel, rms, peak_a, peak_b, t_a, t_b)
 
 
+def interval_means(ours: Series, at: np.ndarray) -> Series:
+    """A per-step quantity (each value held over its step, (t_{k-1}, t_k]: a force as the
+    step's impulse over dt) as its mean over the interval of each time of ``at`` (from
+    halfway to the time before to halfway to the time after; the ends' half-intervals
+    mirrored): the impulse a sampled reference stands for. Times of ``at`` whose interval
+    leaves ``ours`` are dropped.
+
+    Why: in an incompressible model the water stopped in one step against a body gives a
+    force of its impulse over dt, so a single step's value grows as dt shrinks, while the
+    impulse over a fixed interval does not (compare/README.md, "Per-step quantities").
+    """
+    at = np.asarray(at, dtype=float)
+    if len(ours.t) < 2 or len(at) < 2:
+        raise CompareError(f"series '{ours.label}': too few samples for interval means")
+    mid = 0.5 * (at[1:] + at[:-1])
+    lo = np.r_[at[0] - (mid[0] - at[0]), mid]
+    hi = np.r_[mid, at[-1] + (at[-1] - mid[-1])]
+    impulse = np.r_[0.0, np.cumsum(ours.y[1:] * np.diff(ours.t))]  # at ours.t, linear between
+    keep = (lo >= ours.t[0]) & (hi <= ours.t[-1])
+    means = (np.interp(hi[keep], ours.t, impulse) - np.interp(lo[keep], ours.t, impulse)) / (hi[keep] - lo[keep])
+    return Series(at[keep], means, ours.label)
+
+
 def constant_series(value: float, t: np.ndarray, label: str = "") -> Series:
     """A constant (analytic) reference sampled at ``t``."""
     t = np.asarray(t, dtype=float)

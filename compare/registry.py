@@ -69,6 +69,10 @@ class MetricSpec:
     # reference is noise about zero, so errors are absolute (RMS difference, peak difference in
     # the metric's unit) and the relative L2 / peak error are not reported
     absolute: bool = False
+    # a value per step, held over the step (a force: the step's impulse over dt): against
+    # interFoam also compared as its mean over each interFoam sample's interval
+    # (errors.interval_means), besides the raw series
+    per_step: bool = False
 
 
 @dataclass(frozen=True)
@@ -277,9 +281,9 @@ _register(Benchmark(
                    normalisation=DAM_NORM),
         MetricSpec("height_left", "m", "water height at the left wall"),
         MetricSpec("pressure_right", "Pa", "pressure on the right wall 0.01 m above the floor",
-                   skip_initial=True),
+                   skip_initial=True, per_step=True),
         *(MetricSpec(f"pressure_right_{cm}cm", "Pa", f"pressure on the right wall 0.{cm:02d} m above the floor",
-                     skip_initial=True) for cm in (3, 6, 10)),
+                     skip_initial=True, per_step=True) for cm in (3, 6, 10)),
         MetricSpec("volume", "m^2", "fluid volume", against_foam=False),
     ),
     scalars=(
@@ -312,7 +316,7 @@ _register(Benchmark(
     foam_case="dam_break_obstacle",
     metrics=(
         MetricSpec("obstacle_force_x", FORCE_2D, "horizontal force on the obstacle",
-                   skip_initial=True),
+                   skip_initial=True, per_step=True),
         MetricSpec("front_x", "m", "surge front on the floor"),
         MetricSpec("height_left", "m", "water height at the left wall"),
     ),

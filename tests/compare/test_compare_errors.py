@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from compare.errors import Series, on_common_times, relative_error, series_error
+from compare.errors import Series, interval_means, on_common_times, relative_error, series_error
 from compare.io import CompareError
 
 
@@ -212,3 +212,40 @@ def test_obstacle_force_peak_and_impulses():
                Metrics(Path("synthetic"), t, {"obstacle_force_x": np.where(t > 0.3, 10.0, 0.0)}))
     assert scalar_value(late, scalars["impulse_to_0.3s"]) == pytest.approx(0.0, abs=1e-3)
     assert scalar_value(late, scalars["impulse"]) == pytest.approx(7.0, rel=1e-3)
+
+
+def _steps_with_a_packet(dt: float, force: float, impulse: float, at: float) -> Series:
+    """A steady per-step force with the impulse ``impulse`` delivered in the one step that
+    ends at ``at``: its value there is force + impulse / dt."""
+    t = np.arange(0.0, 1.0 + dt / 2, dt)
+    y = np.full_like(t, force)
+    y[int(round(at / dt))] += impulse / dt
+    return Series.of(t, y)
+
+
+def test_interval_means_carry_an_impulse_packet_whatever_the_step():
+    # The same impulse in one step of 0.1 ms or of 0.4 ms: the raw step value differs 4x,
+    # the mean over the reference's 2 ms interval holding it does not.
+    samples = np.arange(0.002, 0.999, 0.002)
+    means = [interval_means(_steps_with_a_packet(dt, 50.0, 0.03, 0.3004), samples) for dt in (1e-4, 4e-4)]
+    for m in means:
+        hit = np.argmin(np.abs(m.t - 0.3))  # the interval [0.299, 0.301] holds the packet's step
+        assert m.y[hit] == pytest.approx(50.0 + 0.03 / 0.002, rel=1e-9)
+        assert np.delete(m.y, hit) == pytest.approx(50.0, rel=1e-9)
+    np.testing.assert_allclose(means[0].y, means[1].y, rtol=1e-9)
+
+
+def test_interval_means_of_a_piecewise_constant_series_are_exact():
+    # Values held over each step: the mean over any interval is the exact time average.
+    t = np.linspace(0.0, 1.0, 401)
+    y = np.sin(7 * t)
+    samples = np.array([0.1, 0.25, 0.4, 0.7])  # uneven: halfway to the neighbours
+    m = interval_means(Series.of(t, y), samples)
+    edges = [(0.025, 0.175), (0.175, 0.325), (0.325, 0.55), (0.55, 0.85)]
+    fine = np.linspace(0.0, 1.0, 400001)
+    held = y[np.minimum(np.searchsorted(t, fine, side="left"), len(t) - 1)]  # the value of the step holding each instant
+    for value, (lo, hi) in zip(m.y, edges):
+        inside = (fine > lo) & (fine <= hi)
+        assert value == pytest.approx(held[inside].mean(), abs=2e-4)
+    with pytest.raises(CompareError):
+        interval_means(Series.of(t[:1], y[:1]), samples)
