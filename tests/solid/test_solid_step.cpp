@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "support/finite_differences.h"
 #include "support/test_helpers.h"
 #include "materials/fixed_corotated.h"
 #include "materials/neo_hookean.h"
@@ -208,17 +209,10 @@ TYPED_TEST(SolidPotentialTest, DerivativesMatchFiniteDifferences) {
     const Vector v = random_vector(rng, n, -1, 1);
     ASSERT_TRUE(std::isfinite(potential.energy(v)));
 
-    const Real h = 1e-6;
     const Vector g = potential.gradient(v);
-    Vector g_fd(n);
-    DenseMatrix H_fd(n, n);
-    for (int k = 0; k < n; ++k) {
-      Vector plus = v, minus = v;
-      plus[k] += h;
-      minus[k] -= h;
-      g_fd[k] = (potential.energy(plus) - potential.energy(minus)) / (2 * h);
-      H_fd.col(k) = (potential.gradient(plus) - potential.gradient(minus)) / (2 * h);
-    }
+    const testing::CentralDifferences differences = testing::central_differences(potential, v, 1e-6);
+    const Vector& g_fd = differences.gradient;
+    const DenseMatrix& H_fd = differences.hessian;
     const Vector kinetic_gradient = potential.mass_diagonal().cwiseProduct(v - potential.initial_velocity());
     const Vector elastic_gradient = g - kinetic_gradient;
     const Real gradient_error = (g_fd - g).norm() / elastic_gradient.norm();

@@ -12,6 +12,7 @@
 #include <random>
 #include <vector>
 
+#include "support/finite_differences.h"
 #include "support/test_helpers.h"
 #include "materials/solid_material.h"
 #include "particles/particles.h"
@@ -204,17 +205,10 @@ TYPED_TEST(WeakNodeTest, ExtendedPotentialDerivativesMatchFiniteDifferences) {
   Vector x(n);
   for (int k = 0; k < n; ++k) x[k] = std::uniform_real_distribution<Real>(-1, 1)(rng);
 
-  const Real h = 1e-6;
   const Vector g = extended.gradient(x);
-  Vector g_fd(n);
-  DenseMatrix H_fd(n, n);
-  for (int k = 0; k < n; ++k) {
-    Vector plus = x, minus = x;
-    plus[k] += h;
-    minus[k] -= h;
-    g_fd[k] = (extended.energy(plus) - extended.energy(minus)) / (2 * h);
-    H_fd.col(k) = (extended.gradient(plus) - extended.gradient(minus)) / (2 * h);
-  }
+  const testing::CentralDifferences differences = testing::central_differences(extended, x, 1e-6);
+  const Vector& g_fd = differences.gradient;
+  const DenseMatrix& H_fd = differences.hessian;
   EXPECT_LT((g_fd - g).norm(), 1e-6 * g.norm());
   const DenseMatrix H = DenseMatrix(extended.hessian(x, /*project_to_psd=*/false));
   EXPECT_LT((H_fd - H).norm(), 1e-6 * H.norm());
