@@ -128,7 +128,8 @@ int main(int argc, char** argv) {
   run->add_flag("--quiet,-q", quiet, "no progress output");
   run->add_option("--dump-system", dump_steps,
                   "write the pressure system of these steps (1-based) to the output folder: system_stepN.mtx (Matrix Market), "
-                  "rhs_stepN.mtx and layout_stepN.json (blocks, dual cell of each unknown), for benchmarks/solvers")
+                  "rhs_stepN.mtx and layout_stepN.json (blocks, dual cell of each unknown), for benchmarks/solvers; an attempt of such a "
+                  "step that fails a check is written as well, as stepN_failedK (K: attempt), before dt is halved")
       ->check(CLI::PositiveNumber)->delimiter(',');
   add_limits(run);
 

@@ -8,6 +8,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <memory>
 #include <stdexcept>
 
@@ -56,11 +57,12 @@ ParticleFrame make_frame(const Simulation<dim>& sim, double time) {
 
 // --dump-system: the step's pressure system A, its right-hand side r, and where each
 // unknown lives (block and dual cell; grid size), so benchmarks/solvers can try solvers
-// and preconditioners on real matrices.
+// and preconditioners on real matrices. `label` is the step number, with the attempt for
+// a step that failed (so that a failure can be studied offline).
 template <int dim>
-void dump_pressure_system(const Simulation<dim>& sim, const std::string& directory, long step) {
+void dump_pressure_system(const Simulation<dim>& sim, const std::string& directory, const std::string& label) {
   const PressureSystem& system = sim.pressure_system();
-  const std::string stem = fmt::format("{}/{{}}_step{}", directory, step);
+  const std::string stem = fmt::format("{}/{{}}_step{}", directory, label);
   Eigen::saveMarket(system.matrix(), fmt::format(stem, "system") + ".mtx");  // both triangles, "general"
   Eigen::saveMarketVector(system.rhs(sim.grid_velocity_before_projection()), fmt::format(stem, "rhs") + ".mtx");
   Json layout;
@@ -91,10 +93,11 @@ std::vector<std::vector<double>> unflatten_rows(const std::vector<double>& flat,
 // the dt the estimate asks for, at most half the dt (so that no sliver is left before a
 // stop) and not below dt_min (method.md#solid-time-step); the retake is not a halving.
 // Returns the dt taken; `retries` counts the halvings, `retakes` the solid error's.
+// `failed_attempt(n)` runs after the n-th attempt (1-based) failed, before it is undone.
 template <int dim>
 double take_checked_step(Simulation<dim>& sim, HealthChecks<dim>* health, const SceneSpec& scene,
                          const TimeStepPolicy& policy, double t, double dt, long step, long& retries, long& retakes,
-                         StageTimer& timer) {
+                         StageTimer& timer, const std::function<void(int)>& failed_attempt) {
   bool retaken = false;
   for (int halvings = 0;;) {
     const bool may_retry = halvings < scene.health.max_retries && dt / 2 >= scene.dt_min;
@@ -122,6 +125,7 @@ double take_checked_step(Simulation<dim>& sim, HealthChecks<dim>* health, const 
       }
     }
     if (problem.empty()) return dt;
+    failed_attempt(halvings + 1);
     if (!may_retry)
       throw NumericalFailure(halvings == 0 ? problem : fmt::format("{} (after {} halvings of dt, at dt = {:.3g} s)", problem, halvings, dt));
     logger()->warn("step {} at t = {:.6g} s with dt = {:.3g} s: {}; taking it again with dt = {:.3g} s", step, t, dt, problem, dt / 2);
@@ -270,8 +274,12 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
       const double next_stop = std::min(next_frame, end_time);
       double dt = policy.next_dt(sim, t, next_stop);
       const double solve_before = sim.timer().seconds("solve"), guess_before = sim.timer().seconds("warm start");
-      dt = take_checked_step(sim, health.get(), scene, policy, t, dt, statistics.steps() + 1, dt_retries, solid_error_retakes,
-                             checks_timer);
+      const long step = statistics.steps() + 1;
+      const bool dump_step = writer && std::find(options.dump_steps.begin(), options.dump_steps.end(), step) != options.dump_steps.end();
+      dt = take_checked_step(sim, health.get(), scene, policy, t, dt, step, dt_retries, solid_error_retakes, checks_timer,
+                             [&](int attempt) {
+                               if (dump_step) dump_pressure_system(sim, options.out_dir, fmt::format("{}_failed{}", step, attempt));
+                             });
       if (health) health->accept();
       t = policy.advance(t, dt, next_stop);
       statistics.add(sim.last_step());
@@ -281,8 +289,7 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
                            double(last.contact_rounds), health ? health->energy() : NAN,
                            health ? health->constraint_residual() : NAN, double(last.solid_step_error)});
       if (pressure_fields) pressure_fields->append(sim.pressure_fields(), dt, statistics.steps(), last.linear.iterations);
-      if (writer && std::find(options.dump_steps.begin(), options.dump_steps.end(), statistics.steps()) != options.dump_steps.end())
-        dump_pressure_system(sim, options.out_dir, statistics.steps());
+      if (dump_step) dump_pressure_system(sim, options.out_dir, std::to_string(step));
       sample(t);
       for (std::size_t c = 1; c < result.metrics.back().size(); ++c)
         if (std::isinf(result.metrics.back()[c]))

@@ -17,15 +17,30 @@ if(NOT code EQUAL 0 OR retries LESS 1 OR NOT err MATCHES "created mechanical ene
   message(FATAL_ERROR "gate at dt_max 1 ms: exit ${code}, dt_retries ${retries}, stderr: ${err}")
 endif()
 
+# Without retries it stops at the first such step; `--dump-system` of that step writes the
+# failed attempt's pressure system (stepN_failed1), for a study of the failure offline.
+string(REGEX MATCH "step ([0-9]+) at t = [^\n]*created mechanical energy" first_failure "${err}")
+set(failed_step ${CMAKE_MATCH_1})
 set(out ${WORK}/health_gate_no_retry)
 file(REMOVE_RECURSE ${out})
 execute_process(COMMAND ${IQMPM} run ${gate} --out ${out} --quiet --threads 2 --set write_frames=false
-                        --set dt_max=1e-3 --set end_time=0.06 --set health.max_retries=0
+                        --set dt_max=1e-3 --set end_time=0.06 --set health.max_retries=0 --dump-system ${failed_step}
                 RESULT_VARIABLE code ERROR_VARIABLE err)
 file(READ ${out}/summary.json summary)
 string(JSON status GET "${summary}" status)
-if(NOT code EQUAL 3 OR NOT status MATCHES "the step created mechanical energy")
+if(NOT code EQUAL 3 OR NOT status MATCHES "step ${failed_step}: the step created mechanical energy")
   message(FATAL_ERROR "gate at dt_max 1 ms without retries: exit ${code}, status: ${status}")
+endif()
+foreach(part system rhs)
+  if(NOT EXISTS ${out}/${part}_step${failed_step}_failed1.mtx)
+    message(FATAL_ERROR "gate without retries: no ${part}_step${failed_step}_failed1.mtx of the failed step")
+  endif()
+endforeach()
+file(READ ${out}/layout_step${failed_step}_failed1.json layout)
+string(JSON unknowns GET "${layout}" unknowns)
+file(STRINGS ${out}/system_step${failed_step}_failed1.mtx size_line REGEX "^[0-9]+ [0-9]+ [0-9]+$")
+if(NOT size_line MATCHES "^${unknowns} ${unknowns} ")
+  message(FATAL_ERROR "gate without retries: the dumped system (${size_line}) is not the layout's ${unknowns} unknowns")
 endif()
 
 set(out ${WORK}/health_tear)
