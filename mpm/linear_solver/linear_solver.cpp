@@ -5,6 +5,7 @@
 #include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
 #include <cholmod.h>
+#include <omp.h>
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -195,6 +196,23 @@ class DirectSolver final : public LinearSolver {
   SparsityPattern pattern_;
 };
 
+// CHOLMOD's supernodal factorisation and solves call BLAS and LAPACK (OpenBLAS's OpenMP
+// build, .ci/setup.sh), whose threaded dpotrf / dgemm round differently from their serial
+// versions: a dam_break_obstacle run parted between 1 and 2 threads at step 285 (journal,
+// 2026-12-03). Inside this scope BLAS runs on one thread, so results do not depend on the
+// thread count; measured cost none (dam break a/128, first 0.1 s, 2 threads: solve stage
+// 10.6 / 11.2 s with threaded BLAS, 8.7 / 10.1 s without, alternating).
+class SerialBlasScope {
+ public:
+  SerialBlasScope() : threads_(omp_get_max_threads()) { omp_set_num_threads(1); }
+  ~SerialBlasScope() { omp_set_num_threads(threads_); }
+  SerialBlasScope(const SerialBlasScope&) = delete;
+  SerialBlasScope& operator=(const SerialBlasScope&) = delete;
+
+ private:
+  int threads_;
+};
+
 // LDL^T by CHOLMOD (simplicial, AMD ordering, no pivoting: the system is symmetric positive
 // definite, or quasi-definite with coupling.solid_response = stiffness). It keeps its
 // symbolic analysis while the pattern repeats, and it can modify its factorisation a row at
@@ -330,6 +348,7 @@ class UpdatableLdlSolver final : public LinearSolver {
 
   bool factorise(const Sparse& A) {
     cholmod_sparse s = view(A);
+    const SerialBlasScope serial_blas;
     cholmod_factorize(&s, factor_, &common_);
     factor_valid_ = common_.status == CHOLMOD_OK && factor_->minor == factor_->n;
     return factor_valid_;
@@ -418,7 +437,11 @@ class UpdatableLdlSolver final : public LinearSolver {
     rhs.x = const_cast<Real*>(b.data());
     rhs.xtype = CHOLMOD_REAL;
     rhs.dtype = CHOLMOD_DOUBLE;
-    cholmod_dense* solution = cholmod_solve(CHOLMOD_A, factor_, &rhs, &common_);
+    cholmod_dense* solution = nullptr;
+    {
+      const SerialBlasScope serial_blas;
+      solution = cholmod_solve(CHOLMOD_A, factor_, &rhs, &common_);
+    }
     if (!solution) throw NumericalFailure("CHOLMOD could not solve the pressure system (out of memory?)");
     x = Eigen::Map<const Eigen::VectorXd>(static_cast<const Real*>(solution->x), b.size());
     cholmod_free_dense(&solution, &common_);
