@@ -258,14 +258,7 @@ class UpdatableLdlSolver final : public LinearSolver {
 
   LinearSolveStats solve_again(const Sparse& A, const Eigen::VectorXd& b, Eigen::VectorXd& x) override {
     if (!factor_valid_ || changes_pending_ || !pattern_.matches(A)) return solve(A, b, x);
-    LinearSolveStats stats;
-    stats.method = name();
-    solve_with_factor(b, x);
-    stats.relative_residual = residual(A, b, x);
-    if (factor_shifted_) refine(A, b, x, stats.relative_residual);
-    stats.shifted = factor_shifted_;
-    stats.converged = std::isfinite(stats.relative_residual);
-    return stats;
+    return solve_with_current_factor(A, b, x);
   }
 
   LinearSolveStats solve(const Sparse& A, const Eigen::VectorXd& b, Eigen::VectorXd& x) override {
@@ -289,19 +282,15 @@ class UpdatableLdlSolver final : public LinearSolver {
     if (!factorise(A) || roundoff_pivots(A) > 0) {
       factor_shifted_ = true;
       const Sparse shifted = with_diagonal_shift(A);
-      analyse(shifted);
-      stats.shifted = true;
+      if (!pattern_.matches(shifted)) analyse(shifted);  // A's analysis serves where its diagonal is stored
       if (!factorise(shifted)) {
         factor_valid_ = false;
+        stats.shifted = true;
         stats.relative_residual = 1;
         return stats;
       }
     }
-    solve_with_factor(b, x);
-    stats.relative_residual = residual(A, b, x);
-    if (stats.shifted) refine(A, b, x, stats.relative_residual);
-    stats.converged = std::isfinite(stats.relative_residual);
-    return stats;
+    return solve_with_current_factor(A, b, x);
   }
 
  private:
@@ -314,6 +303,18 @@ class UpdatableLdlSolver final : public LinearSolver {
   bool changes_pending_ = false;
   std::vector<int> order_;  // suggest_order(); empty: AMD
   bool factor_shifted_ = false;  // the factor is of A + shift (with_diagonal_shift)
+
+  // x from the factor as it stands, refined against A where the factor is of A + shift.
+  LinearSolveStats solve_with_current_factor(const Sparse& A, const Eigen::VectorXd& b, Eigen::VectorXd& x) {
+    LinearSolveStats stats;
+    stats.method = name();
+    solve_with_factor(b, x);
+    stats.relative_residual = residual(A, b, x);
+    if (factor_shifted_) refine(A, b, x, stats.relative_residual);
+    stats.shifted = factor_shifted_;
+    stats.converged = std::isfinite(stats.relative_residual);
+    return stats;
+  }
 
   // A view of the upper triangle of A (stored in full; stype > 0 spares CHOLMOD a transpose).
   static cholmod_sparse view(const Sparse& A) {
