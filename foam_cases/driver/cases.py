@@ -20,6 +20,12 @@ RHO_W = 1000.0
 
 Params = dict[str, object]
 
+# caseParams entries with a closed set of values, checked before a run
+# (`--set system/caseParams:ENTRY=VALUE`). wallVelocity: the velocity condition of
+# the tank's walls (and the obstacle) in the dam-break cases; slip is the model
+# under test (docs/method.md section 1), noSlip a viscous wall.
+CASE_PARAM_CHOICES: dict[str, tuple[str, ...]] = {"wallVelocity": ("slip", "noSlip")}
+
 
 @dataclass
 class Extracted:
@@ -60,7 +66,7 @@ def dam_break_params(level: int) -> Params:
         "level": level, "nx": n, "ny": n, "cells": n * n,
         "dz": 0.0146, "zMid": 0.0073,
         "endTime": 0.6, "writeInterval": 0.1, "sampleInterval": 0.002,
-        "yFloor": dx / 2, "xLeft": dx / 2,
+        "yFloor": dx / 2, "xLeft": dx / 2, "wallVelocity": "slip",
     }
 
 
@@ -144,6 +150,7 @@ def dam_break_obstacle_params(level: int) -> Params:
         "dz": 0.1 * scale, "zMid": 0.05 * scale,
         "endTime": 1.0, "writeInterval": 0.1, "sampleInterval": 0.002,
         "yFloor": 0.32876 * scale / nyl / 2, "xLeft": 2 * scale / nxl / 2,
+        "wallVelocity": "slip",
     }
 
 

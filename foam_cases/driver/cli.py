@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .cases import CASES, CaseSpec, Extracted, Params
+from .cases import CASE_PARAM_CHOICES, CASES, CaseSpec, Extracted, Params
 from .openfoam import (FoamError, log_reached_end, log_tail, max_courant,
                        openfoam_available, openfoam_version, run_tool, set_entry,
                        solver_steps)
@@ -76,6 +76,11 @@ def validate(args: argparse.Namespace) -> CaseSpec:
     for s in args.set:
         if ":" not in s or "=" not in s.split(":", 1)[1]:
             raise UsageError(f"--set '{s}': expected FILE:ENTRY=VALUE")
+        file, rest = s.split(":", 1)
+        entry, value = rest.split("=", 1)
+        choices = CASE_PARAM_CHOICES.get(entry)
+        if file == "system/caseParams" and choices and value not in choices:
+            raise UsageError(f"--set '{s}': caseParams entry '{entry}' accepts {', '.join(choices)}")
     for option, path in (("--out", args.out), ("--work", args.work)):
         if path is not None and path.exists() and not path.is_dir():
             raise UsageError(f"{option} '{path}': exists and is not a folder; accepted: a folder or a new path")

@@ -51,6 +51,21 @@ def test_malformed_set_is_a_clear_error(tmp_path: Path) -> None:
     assert "FILE:ENTRY=VALUE" in r.stderr
 
 
+def test_case_parameter_outside_its_values_is_a_clear_error(tmp_path: Path) -> None:
+    r = run("dam_break", "--level", "1", "--set", "system/caseParams:wallVelocity=sticky",
+            "--out", str(tmp_path))
+    assert r.returncode == 2
+    assert "'wallVelocity' accepts slip, noSlip" in r.stderr
+    assert not (tmp_path / "summary.json").exists()
+
+
+def wall_velocity_types(u_file: Path) -> dict[str, str]:
+    """Patch name -> type of the wall patches in a written U field."""
+    text = u_file.read_text()
+    return {patch: text.split(patch, 1)[1].split("type", 1)[1].split(";", 1)[0].strip()
+            for patch in ("leftWall", "rightWall", "lowerWall")}
+
+
 def test_out_that_is_a_file_is_a_clear_error(tmp_path: Path) -> None:
     target = tmp_path / "a_file"
     target.write_text("not a folder\n")
@@ -94,6 +109,17 @@ def test_dam_break_short_run_extracts_metrics(tmp_path: Path) -> None:
     assert float(rows[-1]["volume"]) == pytest.approx(0.146 * 0.292, rel=1e-3)
     vtk = sorted(p.name for p in (out / "VTK").glob("*.vtu"))
     assert vtk == ["dam_break_0.05.vtu", "dam_break_0.vtu"]
+    # The walls slip, as the model's do (method.md section 1), unless a run asks otherwise.
+    assert set(wall_velocity_types(out / "case" / "0.05" / "U").values()) == {"slip"}
+
+
+@needs_openfoam
+def test_dam_break_walls_can_be_no_slip(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    r = run("dam_break", "--level", "1", "--end-time", "0.01", "--no-vtk", "--out", str(out),
+            "--set", "system/caseParams:wallVelocity=noSlip")
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert set(wall_velocity_types(out / "case" / "0.01" / "U").values()) == {"noSlip"}
 
 
 @needs_openfoam
