@@ -129,7 +129,8 @@ int main(int argc, char** argv) {
   run->add_option("--dump-system", dump_steps,
                   "write the pressure system of these steps (1-based) to the output folder: system_stepN.mtx (Matrix Market), "
                   "rhs_stepN.mtx and layout_stepN.json (blocks, dual cell of each unknown), for benchmarks/solvers; an attempt of such a "
-                  "step that fails a check is written as well, as stepN_failedK (K: attempt), before dt is halved")
+                  "step that fails a check is written as well, as stepN_failedK (K: attempt), before dt is halved (not one that failed "
+                  "before its system was assembled, e.g. in the solid's Newton step: a warning says so)")
       ->check(CLI::PositiveNumber)->delimiter(',');
   add_limits(run);
 

@@ -278,7 +278,13 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
       const bool dump_step = writer && std::find(options.dump_steps.begin(), options.dump_steps.end(), step) != options.dump_steps.end();
       dt = take_checked_step(sim, health.get(), scene, policy, t, dt, step, dt_retries, solid_error_retakes, checks_timer,
                              [&](int attempt) {
-                               if (dump_step) dump_pressure_system(sim, options.out_dir, fmt::format("{}_failed{}", step, attempt));
+                               if (!dump_step) return;
+                               // A StepStats of the attempt counts the unknowns once the system is assembled.
+                               if (sim.last_step().pressure_unknowns > 0)
+                                 dump_pressure_system(sim, options.out_dir, fmt::format("{}_failed{}", step, attempt));
+                               else
+                                 logger()->warn("--dump-system {}: attempt {} failed before its pressure system was "
+                                                "assembled; nothing to write", step, attempt);
                              });
       if (health) health->accept();
       t = policy.advance(t, dt, next_stop);

@@ -43,6 +43,32 @@ if(NOT size_line MATCHES "^${unknowns} ${unknowns} ")
   message(FATAL_ERROR "gate without retries: the dumped system (${size_line}) is not the layout's ${unknowns} unknowns")
 endif()
 
+# A step that fails before its pressure system is assembled (the solid's Newton step, held
+# to 3 iterations) has no system of its own: `--dump-system` of it writes nothing, with a
+# warning, rather than the previous step's system under this step's name.
+set(out ${WORK}/health_newton_dump)
+file(REMOVE_RECURSE ${out})
+set(beam ${SOURCE}/benchmarks/stability/soft_beam.json)
+set(newton_args --set write_frames=false --set newton.max_iterations=3 --set health.max_retries=0 --set end_time=0.1)
+execute_process(COMMAND ${IQMPM} run ${beam} --out ${out} --quiet --threads 2 ${newton_args}
+                RESULT_VARIABLE code ERROR_VARIABLE err)
+file(READ ${out}/summary.json summary)
+string(JSON status GET "${summary}" status)
+if(NOT code EQUAL 3 OR NOT status MATCHES "step ([0-9]+): solid Newton step did not converge")
+  message(FATAL_ERROR "soft beam at 3 Newton iterations: exit ${code}, status: ${status}")
+endif()
+set(newton_step ${CMAKE_MATCH_1})
+if(newton_step LESS 2)
+  message(FATAL_ERROR "soft beam at 3 Newton iterations failed at step ${newton_step}: no earlier system to leave behind")
+endif()
+file(REMOVE_RECURSE ${out})
+execute_process(COMMAND ${IQMPM} run ${beam} --out ${out} --threads 2 ${newton_args} --dump-system ${newton_step}
+                RESULT_VARIABLE code ERROR_VARIABLE err)
+if(NOT code EQUAL 3 OR EXISTS ${out}/system_step${newton_step}_failed1.mtx
+   OR NOT err MATCHES "attempt 1 failed before its pressure system was assembled")
+  message(FATAL_ERROR "Newton failure with --dump-system ${newton_step}: exit ${code}, stderr: ${err}")
+endif()
+
 set(out ${WORK}/health_tear)
 file(REMOVE_RECURSE ${out})
 execute_process(COMMAND ${IQMPM} run ${SOURCE}/benchmarks/floating_block/floating_block.json --out ${out} --quiet --threads 2
