@@ -334,7 +334,8 @@ def _evaluate_one(bench: Benchmark, check: Check, base: Run | str | None,
                   foam_level: FoamRunFinder | None) -> CheckResult:
     """``base``: the level-1 run, the failure text of a level-1 run that left nothing to
     read, or None when level 1 was not run."""
-    from compare.analysis import _error_against, scalar_value
+    from compare.analysis import _error_against
+    from compare.reducers import scalar_value
 
     if check.kind == "status":
         if base is None:

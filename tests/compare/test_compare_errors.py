@@ -92,7 +92,7 @@ def test_draft_scalar_is_level_minus_bottom_over_the_tail():
     """The floating benchmarks' draft: still-water level - (centre - 0.05), mean over the last 40 %."""
     from pathlib import Path
 
-    from compare.analysis import scalar_value
+    from compare.reducers import scalar_value
     from compare.io import Metrics, Run
     from compare.registry import lookup
 
@@ -126,7 +126,7 @@ def test_decay_ratio_of_a_damped_oscillation():
     """
     from pathlib import Path
 
-    from compare.analysis import half_cycle_amplitudes, reduce_series_u, scalar_value
+    from compare.reducers import half_cycle_amplitudes, reduce_series_u, scalar_value
     from compare.io import Metrics, Run
     from compare.registry import lookup
 
@@ -186,7 +186,7 @@ def test_obstacle_force_peak_and_impulses():
     """
     from pathlib import Path
 
-    from compare.analysis import scalar_value
+    from compare.reducers import scalar_value
     from compare.io import Metrics, Run
     from compare.registry import lookup
 

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from compare import fields as fld
-from compare.analysis import (BenchmarkResult, ScalarRow, SeriesRow, fitted_period,
-                              scalar_value_u)
+from compare.analysis import BenchmarkResult, ScalarRow, SeriesRow
 from compare.errors import Series, series_error
 from compare.io import CellField, Metrics, ParticleFrame, Run
+from compare.reducers import fitted_period, scalar_value_u
 from compare.registry import Benchmark, MetricSpec, ScalarSpec, lookup
 
 
@@ -158,7 +158,7 @@ def test_early_period_survives_a_wave_that_shifts_the_swing():
     tank walls pull the block below the late equilibrium for a while, the swing does not cross
     that mean, two half-cycles merge and 'two periods' span 2.5. The fit reads the period and
     says how sure it is, the same at 10 ms and 1 ms output."""
-    from compare.analysis import early_period
+    from compare.reducers import early_period
 
     period = 0.85
     spec = next(s for s in lookup("floating_block").scalars if s.name == "heave_period")
