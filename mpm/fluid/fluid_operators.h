@@ -77,7 +77,8 @@ bool is_interior_cell(const GridLayout<dim>& cells, const IVec<dim>& cell, Holds
 template <int dim>
 struct FluidQuadratureOptions {
   // Surface cells use one point at the cell centre weighted by their particles' volume
-  // (scene key fluid.surface_quadrature = "centre") instead of the particles themselves.
+  // (scene key fluid.surface_quadrature = "centre") instead of the particles themselves,
+  // except a lone drop (one particle, no fluid next to it).
   bool surface_cells_at_centre = false;
   // With interface quadrature: the bins of the real fluid particles; corners touching no
   // real fluid cell lie inside a solid and are left to the caller (it gives them the
@@ -149,13 +150,29 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
     return std::min(mass, density * cell_volume);
   };
   const Real corner_share = density * cell_volume / Real(1 << dim);
+  // The one-point rule at the centre stands for the water of a surface cell that belongs
+  // to a body of water, not for a drop: a cell holding a single fluid particle with no
+  // fluid in its 3^dim block (spray, a drop running down a wall) keeps that particle as
+  // its quadrature point, the one-point rule at its water's centroid (method.md#fluid-quadrature).
+  auto lone_drop = [&](int k) {
+    if (bins.count(k) != 1 || (extra && extra_bins->count(k) > 0)) return false;
+    bool alone = true;
+    for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
+      const IVec<dim> neighbour = cells.multi_index(k) + offset - IVec<dim>::Ones();
+      if (neighbour != cells.multi_index(k) && cells.contains(neighbour) && points_in(cells.index(neighbour)) > 0) alone = false;
+    });
+    return alone;
+  };
+  std::vector<char> at_centre(np, 0);
+  for (int row = 0; row < np; ++row)
+    at_centre[row] = ops.interior[row] || (surface_cells_at_centre && !lone_drop(ops.cell_of_pressure[row]));
   for (int row = 0; row < np; ++row) {
     const int cell_index = ops.cell_of_pressure[row];
     const IVec<dim> cell = cells.multi_index(cell_index);
     // A cell that holds borrowed volume lies at a solid: its fluid fills only a part of it.
     const bool exact = ops.interior[row] && !(extra && extra_bins->count(cell_index) > 0);
     if (!exact) for_each_offset<dim, 2>([&](const IVec<dim>& offset) { corner_inexact[corners.index(cell + offset)] = 1; });
-    if (ops.interior[row] || surface_cells_at_centre) {
+    if (at_centre[row]) {
       const Real share = ops.interior[row] ? corner_share : cell_fluid_mass(row) / Real(1 << dim);
       for_each_offset<dim, 2>([&](const IVec<dim>& offset) { corner_mass[corners.index(cell + offset)] += share; });
       continue;
@@ -221,7 +238,7 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
     };
     if (ops.interior[row]) {
       accumulate(grid.dual_cell_centre(cell), cell_volume);
-    } else if (surface_cells_at_centre) {
+    } else if (at_centre[row]) {
       accumulate(grid.dual_cell_centre(cell), cell_fluid_volume(row));
     } else {
       for_each_volume_point(cell_index, accumulate);
