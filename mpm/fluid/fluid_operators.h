@@ -156,10 +156,11 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
   // its quadrature point, the one-point rule at its water's centroid (method.md#fluid-quadrature).
   auto lone_drop = [&](int k) {
     if (bins.count(k) != 1 || (extra && extra_bins->count(k) > 0)) return false;
+    const IVec<dim> cell = cells.multi_index(k);
     bool alone = true;
     for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
-      const IVec<dim> neighbour = cells.multi_index(k) + offset - IVec<dim>::Ones();
-      if (neighbour != cells.multi_index(k) && cells.contains(neighbour) && points_in(cells.index(neighbour)) > 0) alone = false;
+      const IVec<dim> neighbour = cell + offset - IVec<dim>::Ones();
+      if (neighbour != cell && cells.contains(neighbour) && points_in(cells.index(neighbour)) > 0) alone = false;
     });
     return alone;
   };
