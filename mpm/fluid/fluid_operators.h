@@ -61,16 +61,23 @@ struct FluidOperators {
   int pressure_unknowns() const { return int(cell_of_pressure.size()); }
 };
 
-// A dual cell is interior when no neighbour in its 3^dim block is an empty cell inside the
-// domain (`holds_fluid` by layout index): it is then full of fluid (method.md §4).
-template <int dim, class HoldsFluid>
-bool is_interior_cell(const GridLayout<dim>& cells, const IVec<dim>& cell, HoldsFluid holds_fluid) {
-  bool interior = true;
+// Whether a neighbour of `cell` in its 3^dim block, inside the domain, passes `test` (by
+// layout index); the cell itself does not count.
+template <int dim, class Test>
+bool any_neighbour_cell(const GridLayout<dim>& cells, const IVec<dim>& cell, Test test) {
+  bool found = false;
   for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
     const IVec<dim> neighbour = cell + offset - IVec<dim>::Ones();
-    if (cells.contains(neighbour) && !holds_fluid(cells.index(neighbour))) interior = false;
+    if (neighbour != cell && cells.contains(neighbour) && test(cells.index(neighbour))) found = true;
   });
-  return interior;
+  return found;
+}
+
+// A dual cell holding fluid is interior when no neighbour in its 3^dim block is an empty
+// cell inside the domain (`holds_fluid` by layout index): it is then full of fluid (method.md §4).
+template <int dim, class HoldsFluid>
+bool is_interior_cell(const GridLayout<dim>& cells, const IVec<dim>& cell, HoldsFluid holds_fluid) {
+  return !any_neighbour_cell<dim>(cells, cell, [&](int k) { return !holds_fluid(k); });
 }
 
 // How the fluid quadrature is laid out near free surfaces and solids.
@@ -155,14 +162,8 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
   // fluid in its 3^dim block (spray, a drop running down a wall) keeps that particle as
   // its quadrature point, the one-point rule at its water's centroid (method.md#fluid-quadrature).
   auto lone_drop = [&](int k) {
-    if (bins.count(k) != 1 || (extra && extra_bins->count(k) > 0)) return false;
-    const IVec<dim> cell = cells.multi_index(k);
-    bool alone = true;
-    for_each_offset<dim, 3>([&](const IVec<dim>& offset) {
-      const IVec<dim> neighbour = cell + offset - IVec<dim>::Ones();
-      if (neighbour != cell && cells.contains(neighbour) && points_in(cells.index(neighbour)) > 0) alone = false;
-    });
-    return alone;
+    return bins.count(k) == 1 && !(extra && extra_bins->count(k) > 0) &&
+           !any_neighbour_cell<dim>(cells, cells.multi_index(k), [&](int j) { return points_in(j) > 0; });
   };
   std::vector<char> at_centre(np, 0);
   for (int row = 0; row < np; ++row)
