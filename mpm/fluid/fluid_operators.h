@@ -59,6 +59,8 @@ struct FluidOperators {
 
   int velocity_dofs() const { return int(corner_of_dof.size()); }
   int pressure_unknowns() const { return int(cell_of_pressure.size()); }
+  // The slip walls the corner of `dof` lies on across `axis`: bit 0 the lower, bit 1 the upper.
+  unsigned wall_sides(int dof, int axis) const { return (on_wall[dof] >> (2 * axis)) & 3u; }
 };
 
 // Whether a neighbour of `cell` in its 3^dim block, inside the domain, passes `test` (by

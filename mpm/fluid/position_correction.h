@@ -94,22 +94,16 @@ void displace_fluid_particles(const Grid<dim>& grid, const FluidOperators<dim>& 
   }
 }
 
-// What one correction with its own system solved: its size and its solve.
-struct PositionCorrectionStats {
-  int unknowns = 0;
-  LinearSolveStats linear;
-};
-
 // Moves the fluid particles (and sorts them by cell), each corner by at most
 // `largest_step`; the caller keeps them in the domain. With `walls_on_corners` a wall
 // corner's normal displacement is held (zero inverse mass) instead of a row per wall face,
 // as in the step's own system (method.md#walls-on-corners): in 3-D the face rows made the
-// correction's CG take 7x the iterations of the pressure solve.
+// correction's CG take 7x the iterations of the pressure solve. Returns the number of
+// unknowns of its system.
 template <int dim>
-PositionCorrectionStats correct_fluid_positions(const Grid<dim>& grid, Particles<dim>& fluid, const Particles<dim>& solid,
-                                                const std::array<std::array<bool, 2>, dim>& slip, bool walls_on_corners,
-                                                Real density, Real relaxation, Real largest_step,
-                                                const LinearSolverOptions& solver_options) {
+int correct_fluid_positions(const Grid<dim>& grid, Particles<dim>& fluid, const Particles<dim>& solid,
+                            const std::array<std::array<bool, 2>, dim>& slip, bool walls_on_corners, Real density,
+                            Real relaxation, Real largest_step, const LinearSolverOptions& solver_options) {
   const ParticleBins<dim> bins = sort_particles_by_cell(grid, fluid);
   GridMomentum<dim> momentum;
   fluid_particles_to_grid(grid, fluid, bins, momentum);
@@ -156,7 +150,7 @@ PositionCorrectionStats correct_fluid_positions(const Grid<dim>& grid, Particles
   Eigen::VectorXd inverse_mass(nv * dim);
   for (int d = 0; d < nv; ++d)
     for (int a = 0; a < dim; ++a) {
-      const bool held = walls_on_corners && ((ops.on_wall[d] >> (2 * a)) & 3u);
+      const bool held = walls_on_corners && ops.wall_sides(d, a) != 0;
       inverse_mass[d * dim + a] = held ? 0 : 1 / ops.mass[d];
     }
   PressureSystem correction;
@@ -174,7 +168,7 @@ PositionCorrectionStats correct_fluid_positions(const Grid<dim>& grid, Particles
     throw NumericalFailure(fmt::format("position correction solve did not converge (relative residual {:.3g})", stats.relative_residual));
   displace_fluid_particles(grid, ops, correction.corrected_velocity(Eigen::VectorXd::Zero(nv * dim), q), 0, largest_step,
                            fluid);
-  return {correction.unknowns(), stats};
+  return correction.unknowns();
 }
 
 }  // namespace iqmpm

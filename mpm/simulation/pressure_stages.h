@@ -91,7 +91,7 @@ void Simulation<dim>::assemble_pressure_system(Real dt) {
     }
     for (int a = 0; a < dim; ++a) {
       const int column = fluid_column_offset_ + d * dim + a;
-      const std::uint8_t sides = options_.walls_on_corners ? (ops_.on_wall[d] >> (2 * a)) & 3u : 0;
+      const unsigned sides = options_.walls_on_corners ? ops_.wall_sides(d, a) : 0u;
       inverse_mass[column] = sides ? 0 : 1 / mass;
       velocity_star_[column] = sides ? 0 : v[a];
       if (sides) wall_holds_.push_back({column, a, sides & 1u ? 0 : 1, mass * v[a] / dt});

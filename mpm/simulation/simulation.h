@@ -48,7 +48,6 @@ struct StepStats {
   bool contact_settled = true;  // unilateral: the active set stopped changing within max_contact_rounds
   int modified_solves = 0;      // unilateral: rounds solved by modifying the LDL^T factor's changed rows
   int correction_unknowns = 0;  // the position correction's own system (with solids; 0: none or the step's factor)
-  int correction_iterations = 0;
 };
 
 // The scene's choices as the step uses them, resolved once.

@@ -113,11 +113,9 @@ void Simulation<dim>::correct_fluid_positions() {
   auto scope = timer_.scope("position correction");
   const Real largest_step = Real(0.5) * grid_.dx / scene_.particles_per_axis;
   if (has_solids()) {
-    const PositionCorrectionStats stats =
+    last_.correction_unknowns =
         iqmpm::correct_fluid_positions<dim>(grid_, fluid_, solid_, slip_, options_.walls_on_corners, options_.fluid_density,
                                             options_.position_correction, largest_step, options_.pressure_solver);
-    last_.correction_unknowns = stats.unknowns;
-    last_.correction_iterations = stats.linear.iterations;
   } else {
     const std::vector<Real> target =
         position_correction_targets(grid_, ops_, smoothed_particle_volume_per_cell(grid_, fluid_, false), options_.position_correction);
