@@ -36,12 +36,14 @@ namespace iqmpm {
 
 // Per pressure row of `ops`: the target of G^fT d = -integral of div d over the cell,
 // -relaxation (phi - 1) dx^dim, phi the volume in the cell (`volume`, per dual cell) over
-// the cell's. In an interior cell phi - 1 is the 1-2-1 weighted mean over the interior
-// cells of its 3^dim block, which has no checkerboard part; cells next to empty space may
-// be partly empty: their own phi - 1, only expanded, never compressed.
+// the cell's. In a full cell (`full`, per pressure row: no empty space in its 3^dim block)
+// phi - 1 is the 1-2-1 weighted mean over the full cells of its block, which has no
+// checkerboard part; cells next to empty space may be partly empty: their own phi - 1,
+// only expanded, never compressed.
 template <int dim>
 std::vector<Real> position_correction_targets(const Grid<dim>& grid, const FluidOperators<dim>& ops,
-                                              const std::vector<Real>& volume, Real relaxation) {
+                                              const std::vector<char>& full, const std::vector<Real>& volume,
+                                              Real relaxation) {
   const Real cell_volume = grid.cell_volume();
   const int np = ops.pressure_unknowns();
   std::vector<Real> excess(np);
@@ -50,14 +52,14 @@ std::vector<Real> position_correction_targets(const Grid<dim>& grid, const Fluid
   std::vector<Real> target(np, 0);
   for (int i = 0; i < np; ++i) {
     Real e = 0;
-    if (ops.interior[i]) {
+    if (full[i]) {
       const IVec<dim> cell = cells.multi_index(ops.cell_of_pressure[i]);
       Real weight_sum = 0;
       for_each_offset<dim, 3>([&](const IVec<dim>& o) {
         const IVec<dim> neighbour = cell + o - IVec<dim>::Ones();
         if (!cells.contains(neighbour)) return;
         const int j = ops.pressure_of_cell[cells.index(neighbour)];
-        if (j < 0 || !ops.interior[j]) return;
+        if (j < 0 || !full[j]) return;
         Real w = 1;
         for (int a = 0; a < dim; ++a) w *= o[a] == 1 ? 2 : 1;
         e += w * excess[j], weight_sum += w;
@@ -144,7 +146,16 @@ int correct_fluid_positions(const Grid<dim>& grid, Particles<dim>& fluid, const 
     const std::vector<Real> smoothed_solid_volume = smoothed_particle_volume_per_cell(grid, solid, true);
     for (std::size_t k = 0; k < volume.size(); ++k) volume[k] += smoothed_solid_volume[k];
   }
-  std::vector<Real> target = position_correction_targets(grid, ops, volume, relaxation);
+  // A cell next to the body is full, not partly empty: phi counts the body's volume. Left
+  // one-sided (expanded only) it pushed water off the body every step and never drew it
+  // back, so the body rode on a depleted layer, more so the more steps a second
+  // (method.md#position-correction).
+  std::vector<char> full = ops.interior;
+  if (has_solids) {
+    const auto occupied = [&](int k) { return ops.pressure_of_cell[k] >= 0 || solid_volume[k] >= Real(0.5) * cell_volume; };
+    for (int i = 0; i < np; ++i) full[i] = is_interior_cell<dim>(cells, cells.multi_index(ops.cell_of_pressure[i]), occupied);
+  }
+  std::vector<Real> target = position_correction_targets(grid, ops, full, volume, relaxation);
   const int wall_rows = walls_on_corners ? 0 : int(ops.wall_faces.size());
   target.resize(np + wall_rows + solid_faces, 0);
   Eigen::VectorXd inverse_mass(nv * dim);

@@ -118,7 +118,7 @@ void Simulation<dim>::correct_fluid_positions() {
                                             options_.position_correction, largest_step, options_.pressure_solver);
   } else {
     const std::vector<Real> target =
-        position_correction_targets(grid_, ops_, smoothed_particle_volume_per_cell(grid_, fluid_, false), options_.position_correction);
+        position_correction_targets(grid_, ops_, ops_.interior, smoothed_particle_volume_per_cell(grid_, fluid_, false), options_.position_correction);
     Eigen::VectorXd rhs = Eigen::VectorXd::Zero(system_.size());
     for (int i = 0; i < ops_.pressure_unknowns(); ++i)
       if (!system_.vacant(layout_.pressure + i)) rhs[layout_.pressure + i] = -target[i];
