@@ -240,7 +240,7 @@ def _hydrostatic(name: str, dim: int) -> Benchmark:
 
 REGISTRY: dict[str, Benchmark] = {}
 
-# Typical wall times on the 2-core reference machine (docs/journal.md; one thread, default
+# Typical wall times on the 2-core reference machine (one thread, default
 # resolution; OpenFOAM level 1, set-up and VTK included): (IQ-MPM s, OpenFOAM s). They only
 # order validate's queue, longest first.
 _COST_S: dict[str, tuple[float, float]] = {

@@ -12,7 +12,7 @@ What it measures
         kinetic-energy norm of the velocity update), and ||C x|| / ||b||;
       - CG iterations to 1e-8 from zero with matrices.py's preconditioners on A + C;
       - with --as-preconditioner, CG on A itself with BoomerAMG (plain and on S A S) built on A + C.
-    The figures of 2026-12-03 are in docs/journal.md (session 29).
+    Figures: benchmarks/solvers/README.md.
 
 How to run
     /usr/bin/python3 benchmarks/solvers/stabilised.py DUMP_DIR [DUMP_DIR ...] \

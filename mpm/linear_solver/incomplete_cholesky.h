@@ -2,7 +2,7 @@
 // A's lower triangle, and L L^T matches A on that pattern. The pressure unknowns are
 // numbered in grid order (dual cells, then the blocks after them), and in that order IC(0)
 // needs about a third of the iterations of Eigen's threshold-fill factorisation with AMD
-// order on the 3-D floating cube (docs/journal.md, 2026-12-01: issue 21's measurements).
+// order on the 3-D floating cube (method.md#linear-solver).
 //
 // The Q1-P0 pressure stencil is not an M-matrix, so a pivot can turn non-positive; the
 // factorisation is then redone on A + alpha diag(A) with alpha = 1e-3, doubling (Manteuffel's

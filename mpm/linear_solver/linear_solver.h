@@ -85,8 +85,8 @@ class LinearSolver {
 };
 
 // Chooses the solver for a system of `unknowns` rows according to the options. "auto" is
-// LDL^T for 2-D systems up to direct_max_unknowns and PCG otherwise (docs/journal.md:
-// benchmarks/solvers/run.sh on the dam break); in 3-D direct fill-in explodes (CHOLMOD
+// LDL^T for 2-D systems up to direct_max_unknowns and PCG otherwise (method.md#linear-solver;
+// benchmarks/solvers/ on the dam break); in 3-D direct fill-in explodes (CHOLMOD
 // 2.8 s a solve on the 3-D hydrostatic tank, warm-started PCG 0.1 s).
 std::unique_ptr<LinearSolver> make_linear_solver(const LinearSolverOptions& options, int unknowns, int dim);
 // The kind of solver make_linear_solver would choose, without making it.

@@ -35,7 +35,7 @@ class LearnedPredictor {
 // A multiplier as MPMNet's float32 tensors hold it: values below float's normal range
 // (|v| < 1.2e-38 Pa, a zero that round-off left in double) are 0. Kept, such a subnormal
 // was the scale of its field in the network's normalisation and made the prediction
-// infinite (docs/journal.md, 2026-12-02).
+// infinite (method.md#warm-start).
 inline float mpmnet_value(Real v) { return std::abs(v) < std::numeric_limits<float>::min() ? 0.0f : float(v); }
 
 // Whether this build has libtorch (solver.warm_start = learned).

@@ -31,7 +31,7 @@
 // can act through it. It is made a unit row with zero right-hand side and multiplier
 // (vacant()), instead of meeting a zero pivot in the factorisation: a shifted factorisation
 // gave it an arbitrary multiplier, and the rows around it a residual of up to 2 %
-// (dam_break_obstacle, docs/journal.md 2026-12-02).
+// (dam_break_obstacle; method.md §5).
 #pragma once
 
 #include <Eigen/SparseCore>

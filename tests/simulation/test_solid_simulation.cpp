@@ -336,7 +336,7 @@ TYPED_TEST(SolidSimulationTest, GhostMatrixConstraintHoldsAfterTheSolve) {
 // blocks' extrapolation (G2P reads them), and the pressure system's columns of the weak
 // nodes are empty (their constraint entries moved to the blocks). Either wiring left out
 // lets the weak nodes relieve the face particles through the pressure step (a slanted
-// beam's sag then crept, docs/journal.md).
+// beam's sag then crept, method.md#weak-solid-nodes).
 TYPED_TEST(SolidSimulationTest, WeakNodesFollowTheirBlocksThroughTheStep) {
   constexpr int dim = TypeParam::value;
   Json doc = this->block_scene({0.3, 0.0}, {0.7, 0.3}, {0.3, 0.7}, 1.0);
