@@ -14,7 +14,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from compare import stress
+from compare import stress, stress_checks
 from compare.cli import main
 from compare_synth import write_metrics, write_summary
 
@@ -235,23 +235,23 @@ def _frame(points: np.ndarray) -> SimpleNamespace:
 
 
 def test_fluid_bin_volume_counts_occupied_bins_of_dx():
-    facts = stress.SceneFacts.of(scene_as_run("floating_block", dx=FB_DX))
+    facts = stress_checks.SceneFacts.of(scene_as_run("floating_block", dx=FB_DX))
     column = lattice((0, 0), (1, 0.4), FB_SPACING)  # 50 x 20 bins of 0.02 m
-    volume = stress.fluid_bin_volume(_frame(column), facts)
+    volume = stress_checks.fluid_bin_volume(_frame(column), facts)
     assert volume == pytest.approx(0.4, rel=1e-12)
     # a rigid shift by whole bins, and any clustering of particles within their own bins
-    assert stress.fluid_bin_volume(_frame(column + [-0.1, 0.06]), facts) == volume
+    assert stress_checks.fluid_bin_volume(_frame(column + [-0.1, 0.06]), facts) == volume
     rng = np.random.default_rng(3)
     bins = np.floor(column / FB_DX)
-    assert stress.fluid_bin_volume(_frame((bins + rng.random(column.shape)) * FB_DX), facts) == volume
-    assert stress.fluid_bin_volume(_frame((bins + 0.5) * FB_DX), facts) == volume  # one per bin
+    assert stress_checks.fluid_bin_volume(_frame((bins + rng.random(column.shape)) * FB_DX), facts) == volume
+    assert stress_checks.fluid_bin_volume(_frame((bins + 0.5) * FB_DX), facts) == volume  # one per bin
     # compressed by 10 % (depth 0.4 -> 0.36): 18 rows of bins instead of 20
     squeezed = column * [1.0, 0.9]
-    assert stress.fluid_bin_volume(_frame(squeezed), facts) / volume - 1 == pytest.approx(-0.10)
+    assert stress_checks.fluid_bin_volume(_frame(squeezed), facts) / volume - 1 == pytest.approx(-0.10)
     # solid particles do not count
     both = SimpleNamespace(points=np.r_[column, column + [0, 0.5]],
                            material=np.r_[np.zeros(len(column)), np.ones(len(column))].astype(int))
-    assert stress.fluid_bin_volume(both, facts) == volume
+    assert stress_checks.fluid_bin_volume(both, facts) == volume
 
 
 def test_archimedes(tmp_path):
@@ -276,10 +276,10 @@ def test_gate_that_stays_shut_under_load_is_wrong(tmp_path):
 
 
 def test_water_height_behind_a_bent_gate_is_its_level(tmp_path):
-    facts = stress.SceneFacts.of(scene_as_run("elastic_gate", dx=GATE_DX))
+    facts = stress_checks.SceneFacts.of(scene_as_run("elastic_gate", dx=GATE_DX))
     for level, bend in ((0.13, 0.025), (0.13, -0.01), (0.14, 0.0), (0.06, 0.02)):
         points, material = bent_gate_frame(level, bend)
-        height, count = stress.upstream_water_height(SimpleNamespace(points=points,
+        height, count = stress_checks.upstream_water_height(SimpleNamespace(points=points,
                                                                      material=material), facts)
         assert count == np.count_nonzero(material == 0)  # all the water is upstream
         assert height == pytest.approx(level, abs=1e-9), (level, bend)
@@ -311,7 +311,7 @@ def test_gate_force_is_bounded_by_twice_the_first_frames_load(tmp_path):
 
 def test_hydrostatic_gate_load():
     gate = {"length": 0.079, "thickness": 0.005, "E": 12e6, "nu": 0.4}
-    force, tip = stress.hydrostatic_gate_load(0.14, gate, 1000.0, 9.81)
+    force, tip = stress_checks.hydrostatic_gate_load(0.14, gate, 1000.0, 9.81)
     assert force == pytest.approx(77.9, rel=2e-3)  # benchmarks.md: 77.9 N/m at t = 0+
     assert tip == pytest.approx(0.0381, rel=1e-2)
 
