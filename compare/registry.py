@@ -248,7 +248,7 @@ _COST_S: dict[str, tuple[float, float]] = {
     "dam_break_obstacle": (12, 30), "elastic_gate": (55, 0), "submerged_plate": (4, 0),
     "submerged_block": (12, 0), "neutral_block": (95, 0), "floating_block": (115, 480),
     "floating_block_roll": (155, 500), "floating_block_light": (110, 720),
-    "floating_block_3d": (90, 0), "floating_block_3d_fine": (5000, 0),
+    "floating_block_3d": (90, 0), "floating_block_3d_fine": (1000, 0),
     "elastic_sphere": (250, 0), "cantilever": (15, 25), "cantilever_vibration": (6, 0),
     "cantilever_vibration_adaptive": (6, 0),
     "cantilever_large_deflection": (20, 0),
