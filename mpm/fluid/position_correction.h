@@ -115,6 +115,9 @@ int correct_fluid_positions(const Grid<dim>& grid, Particles<dim>& fluid, const 
   const GridLayout<dim> cells = grid.dual_cells();
   const bool has_solids = !solid.empty();
   const std::vector<Real> solid_volume = has_solids ? particle_volume_per_cell(grid, solid, true) : std::vector<Real>();
+  // A cell the solids fill at least half: a wall for the water (its faces get rows) and, for
+  // the filter, a full cell.
+  const auto mostly_solid = [&](int k) { return solid_volume[k] >= Real(0.5) * cell_volume; };
   // Faces between a fluid cell and a (mostly) solid cell without fluid: no displacement.
   std::vector<Triplet> solid_face_rows;
   int solid_faces = 0;
@@ -129,7 +132,7 @@ int correct_fluid_positions(const Grid<dim>& grid, Particles<dim>& fluid, const 
           neighbour[axis] += side == 0 ? -1 : 1;
           if (!cells.contains(neighbour)) continue;
           const int k = cells.index(neighbour);
-          if (ops.pressure_of_cell[k] >= 0 || solid_volume[k] < Real(0.5) * cell_volume) continue;
+          if (ops.pressure_of_cell[k] >= 0 || !mostly_solid(k)) continue;
           const Real normal = side == 0 ? -1 : 1;
           const std::size_t before = solid_face_rows.size();
           for_each_offset<dim, 2>([&](const IVec<dim>& offset) {
@@ -152,7 +155,7 @@ int correct_fluid_positions(const Grid<dim>& grid, Particles<dim>& fluid, const 
   // (method.md#position-correction).
   std::vector<char> full = ops.interior;
   if (has_solids) {
-    const auto occupied = [&](int k) { return ops.pressure_of_cell[k] >= 0 || solid_volume[k] >= Real(0.5) * cell_volume; };
+    const auto occupied = [&](int k) { return ops.pressure_of_cell[k] >= 0 || mostly_solid(k); };
     for (int i = 0; i < np; ++i) full[i] = is_interior_cell<dim>(cells, cells.multi_index(ops.cell_of_pressure[i]), occupied);
   }
   std::vector<Real> target = position_correction_targets(grid, ops, full, volume, relaxation);
