@@ -53,6 +53,31 @@ Sparse with_diagonal_shift(const Sparse& A) {
   return shifted;
 }
 
+// CHOLMOD's switch from a simplicial to a supernodal factor, flops / nnz(L): the measured
+// crossover (benchmarks/solvers/factor_kinds.cpp on dumped systems, one core, OpenBLAS, the
+// grid's nested dissection): simplicial LDL^T takes 0.41 / 0.68 / 0.81 of supernodal LL^T's
+// time on the 2-D dam break at a/64 / a/128 / a/180 (flops / nnz(L) 61 / 102 / 124), 1.31 /
+// 1.99 / 4.43 of it on 3-D floating cubes (135 / 244 / 493). CHOLMOD's default, 40, sent
+// the 2-D dam break supernodal (method.md#linear-solver).
+constexpr double kSupernodalSwitch = 130;
+
+// CHOLMOD's supernodal factorisation and solves call BLAS and LAPACK (OpenBLAS's OpenMP
+// build, .ci/setup.sh), whose threaded dpotrf / dgemm round differently from their serial
+// versions: a dam_break_obstacle run parted between 1 and 2 threads at step 285
+// (method.md#linear-solver). Inside this scope BLAS runs on one thread, so results do not depend on the
+// thread count; measured cost none (dam break a/128, first 0.1 s, 2 threads: solve stage
+// 10.6 / 11.2 s with threaded BLAS, 8.7 / 10.1 s without, alternating).
+class SerialBlasScope {
+ public:
+  SerialBlasScope() : threads_(omp_get_max_threads()) { omp_set_num_threads(1); }
+  ~SerialBlasScope() { omp_set_num_threads(threads_); }
+  SerialBlasScope(const SerialBlasScope&) = delete;
+  SerialBlasScope& operator=(const SerialBlasScope&) = delete;
+
+ private:
+  int threads_;
+};
+
 // A direct factorisation (Factor: an Eigen sparse Cholesky-type solver; CHOLMOD's LL^T for
 // solver.method = cholmod) with the residual of its solution reported like PCG's.
 template <class Factor>
@@ -72,6 +97,7 @@ class DirectSolver final : public LinearSolver {
       pattern_.remember(A);
       analysed_ = true;
     }
+    const SerialBlasScope serial_blas;
     factor.factorize(A);
     if (factor.info() != Eigen::Success) {
       analysed_ = false;  // the shifted retry analyses afresh
@@ -92,12 +118,14 @@ class DirectSolver final : public LinearSolver {
  private:
   template <class F>
   static void configure(F&) {}
-  // CHOLMOD: simplicial LL^T with AMD ordering. On the 2-D dam break at dx = a/64 (8.5k
-  // unknowns) the supernodal factorisation took 46 ms a solve against 21 ms.
+  // CHOLMOD: LL^T with AMD ordering, supernodal where the factor is dense enough, by the
+  // LDL^T solver's measured crossover (kSupernodalSwitch): simplicial on the 2-D dam
+  // break (at a/64 supernodal took 46 ms a solve against 21 ms), supernodal on 3-D systems.
   static void configure(Eigen::CholmodDecomposition<Sparse, Eigen::Lower>& factor) {
     factor.cholmod().nmethods = 1;
     factor.cholmod().method[0].ordering = CHOLMOD_AMD;
-    factor.setMode(Eigen::CholmodSimplicialLLt);
+    factor.setMode(Eigen::CholmodAuto);
+    factor.cholmod().supernodal_switch = kSupernodalSwitch;
   }
 
   std::string name_;
@@ -106,24 +134,8 @@ class DirectSolver final : public LinearSolver {
   SparsityPattern pattern_;
 };
 
-// CHOLMOD's supernodal factorisation and solves call BLAS and LAPACK (OpenBLAS's OpenMP
-// build, .ci/setup.sh), whose threaded dpotrf / dgemm round differently from their serial
-// versions: a dam_break_obstacle run parted between 1 and 2 threads at step 285
-// (method.md#linear-solver). Inside this scope BLAS runs on one thread, so results do not depend on the
-// thread count; measured cost none (dam break a/128, first 0.1 s, 2 threads: solve stage
-// 10.6 / 11.2 s with threaded BLAS, 8.7 / 10.1 s without, alternating).
-class SerialBlasScope {
- public:
-  SerialBlasScope() : threads_(omp_get_max_threads()) { omp_set_num_threads(1); }
-  ~SerialBlasScope() { omp_set_num_threads(threads_); }
-  SerialBlasScope(const SerialBlasScope&) = delete;
-  SerialBlasScope& operator=(const SerialBlasScope&) = delete;
-
- private:
-  int threads_;
-};
-
-// LDL^T by CHOLMOD (simplicial, AMD ordering, no pivoting: the system is symmetric positive
+// LDL^T by CHOLMOD (simplicial LDL^T, or supernodal LL^T where the factor is dense enough;
+// in the suggested order, else AMD; no pivoting: the system is symmetric positive
 // definite, or quasi-definite with coupling.solid_response = stiffness). It keeps its
 // symbolic analysis while the pattern repeats, and it can modify its factorisation a row at
 // a time (CHOLMOD's Modify module, a rank-2 update each): after expect_row_changes(), a released row is deleted (its row and column
@@ -141,10 +153,11 @@ class UpdatableLdlSolver final : public LinearSolver {
     cholmod_start(&common_);
     common_.nmethods = 1;
     common_.method[0].ordering = CHOLMOD_AMD;
-    // CHOLMOD_AUTO: supernodal (LL^T, BLAS-3) where the factor is dense enough, which on the
-    // dam break at a/128 (33k unknowns, 1.2M entries in L) halves the factorisation with
-    // OpenBLAS; simplicial LDL^T where rows are modified or the system is quasi-definite.
+    // CHOLMOD_AUTO: supernodal LL^T (BLAS-3) where the factor is dense enough (flops /
+    // nnz(L) at least kSupernodalSwitch), else simplicial LDL^T; always simplicial where rows
+    // are modified or the system is quasi-definite.
     common_.supernodal = simplicial ? CHOLMOD_SIMPLICIAL : CHOLMOD_AUTO;
+    common_.supernodal_switch = kSupernodalSwitch;
     common_.final_ll = false;
     common_.print = 0;
     common_.error_handler = nullptr;
@@ -222,6 +235,7 @@ class UpdatableLdlSolver final : public LinearSolver {
     stats.relative_residual = residual(A, b, x);
     if (factor_shifted_) refine(A, b, x, stats.relative_residual);
     stats.shifted = factor_shifted_;
+    stats.supernodal = factor_->is_super;
     stats.converged = std::isfinite(stats.relative_residual);
     return stats;
   }

@@ -33,7 +33,7 @@ struct LinearSolverOptions {
   DirectOrdering ordering = DirectOrdering::grid;  // ldlt
   // ldlt: keep the factor simplicial LDL^T, as row modifications (the unilateral
   // interface's rounds) and quasi-definite systems (the solid's stiffness) need; otherwise
-  // CHOLMOD may choose a supernodal LL^T.
+  // CHOLMOD chooses supernodal LL^T where the factor is dense enough (3-D systems).
   bool simplicial = false;
   // pcg with boomeramg: the flip and the hierarchy's parameters.
   CheckerboardFlip checkerboard_flip = CheckerboardFlip::automatic;
@@ -48,6 +48,7 @@ struct LinearSolveStats {
   bool converged = false;
   bool shifted = false;       // direct solve: refactorised with a tiny diagonal shift after a zero pivot
   int modified_rows = 0;      // LDL^T: rows modified in its factorisation instead of factorising (0: factorised)
+  bool supernodal = false;    // LDL^T: the factor CHOLMOD chose was supernodal LL^T (dense enough), not simplicial LDL^T
 };
 
 class LinearSolver {

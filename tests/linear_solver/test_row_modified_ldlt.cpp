@@ -1,7 +1,8 @@
-// The LDL^T solver's row modification (linear_solver.cpp) against fresh factorisations, on
+// The LDL^T solver's row modification (direct_solvers.cpp) against fresh factorisations, on
 // systems assembled by PressureSystem as the unilateral interface's active-set rounds
-// change them.
+// change them; its two kinds of factor, simplicial and supernodal, against Eigen's LDL^T.
 #include <Eigen/Dense>
+#include <Eigen/SparseCholesky>
 
 #include <cstdint>
 #include <random>
@@ -124,6 +125,71 @@ TEST(RowModifiedLdltTest, ARepeatedRowLeavesARoundOffPivotThatIsShiftedAndRefine
   const Eigen::MatrixXd scaled = S.asDiagonal() * dense * S.asDiagonal();
   const Eigen::VectorXd least = S.asDiagonal() * scaled.completeOrthogonalDecomposition().solve(Eigen::VectorXd(S.asDiagonal() * b));
   EXPECT_LT((x - least).norm(), 1e-3 * least.norm());
+}
+
+// The pressure stencil's reach on an n^dim grid: each cell coupled to every cell of its 3^dim
+// block (Q1-P0's D M^-1 D^T), diagonally dominant so SPD, plus a random perturbation of the
+// couplings to keep the test off a symmetric special case.
+SparseMatrix block_stencil(int n, int dim, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<Real> uniform(0.5, 1.5);
+  const int size = dim == 2 ? n * n : n * n * n;
+  std::vector<Eigen::Triplet<Real>> entries;
+  for (int i = 0; i < size; ++i) {
+    int c[3] = {i % n, (i / n) % n, dim == 3 ? i / (n * n) : 0};
+    for (int dz = dim == 3 ? -1 : 0; dz <= (dim == 3 ? 1 : 0); ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int x = c[0] + dx, y = c[1] + dy, z = c[2] + dz;
+          if (x < 0 || y < 0 || z < 0 || x >= n || y >= n || z >= n) continue;
+          const int j = x + n * (y + n * z);
+          if (j > i) {
+            const Real value = -uniform(rng);
+            entries.emplace_back(i, j, value);
+            entries.emplace_back(j, i, value);
+          }
+        }
+    entries.emplace_back(i, i, dim == 2 ? 12 : 40);
+  }
+  SparseMatrix A(size, size);
+  A.setFromTriplets(entries.begin(), entries.end());
+  return A;
+}
+
+// CHOLMOD picks a supernodal LL^T only where the factor is dense enough (flops / nnz(L) at
+// least the measured crossover, direct_solvers.cpp): the 2-D stencil stays simplicial LDL^T,
+// the 3-D one goes supernodal unless LinearSolverOptions::simplicial keeps it simplicial.
+// Every kind, and CHOLMOD's LL^T (solver.method = cholmod), must solve the system as
+// Eigen's own LDL^T does.
+TEST(LdltFactorKindTest, SimplicialIn2DSupernodalIn3DEachMatchingEigen) {
+  struct Case {
+    int n, dim;
+    bool simplicial_asked, supernodal_expected;
+  };
+  for (const Case& c : {Case{64, 2, false, false}, Case{16, 3, false, true}, Case{16, 3, true, false}}) {
+    SCOPED_TRACE(::testing::Message() << c.dim << "-D, simplicial asked " << c.simplicial_asked);
+    const SparseMatrix A = block_stencil(c.n, c.dim, 11);
+    std::mt19937 rng(4);
+    std::uniform_real_distribution<Real> uniform(-1, 1);
+    const Eigen::VectorXd b = Eigen::VectorXd::NullaryExpr(A.rows(), [&] { return uniform(rng); });
+    const Eigen::VectorXd reference = Eigen::SimplicialLDLT<SparseMatrix>(A).solve(b);
+    LinearSolverOptions options;
+    options.method = LinearSolverMethod::ldlt;
+    options.simplicial = c.simplicial_asked;
+    auto solver = make_linear_solver(options, int(A.rows()), c.dim);
+    Eigen::VectorXd x = Eigen::VectorXd::Zero(A.rows());
+    const LinearSolveStats stats = solver->solve(A, b, x);
+    ASSERT_TRUE(stats.converged);
+    EXPECT_EQ(stats.supernodal, c.supernodal_expected);
+    EXPECT_LT(stats.relative_residual, 1e-12);
+    EXPECT_LT((x - reference).norm(), 1e-11 * reference.norm());
+    // solver.method = cholmod (LL^T) chooses by the same switch.
+    options.method = LinearSolverMethod::cholmod;
+    auto llt = make_linear_solver(options, int(A.rows()), c.dim);
+    Eigen::VectorXd y = Eigen::VectorXd::Zero(A.rows());
+    ASSERT_TRUE(llt->solve(A, b, y).converged);
+    EXPECT_LT((y - reference).norm(), 1e-11 * reference.norm());
+  }
 }
 
 }  // namespace
