@@ -10,7 +10,8 @@
 //   OMP_NUM_THREADS=1 out/factor_kinds DUMP_DIR:STEP [DUMP_DIR:STEP ...]
 // Prints a Markdown table: unknowns, nnz(L), flops / nnz(L), the fastest of 5
 // factorisations of each kind (ms) and their ratio.
-#include <cholmod.h>
+#include <Eigen/CholmodSupport>
+#include <Eigen/SparseCore>
 
 #include <algorithm>
 #include <chrono>
@@ -28,8 +29,7 @@ namespace {
 struct Dump {
   std::string name;
   int n = 0, dim = 0;
-  std::vector<int> column_start, row;  // upper triangle, column by column (CHOLMOD's stype 1)
-  std::vector<double> value;
+  Eigen::SparseMatrix<double> matrix;  // both triangles, as dumped
   std::vector<int> order;  // the solver's elimination order
 };
 
@@ -58,20 +58,16 @@ Dump read_dump(const std::string& argument) {
   std::getline(matrix, line);
   long rows, columns, entries;
   matrix >> rows >> columns >> entries;
-  std::vector<std::vector<std::pair<int, double>>> by_column(columns);
+  std::vector<Eigen::Triplet<double>> triplets;
   for (long e = 0; e < entries; ++e) {
     long i, j;
     double v;
     matrix >> i >> j >> v;
-    if (i <= j) by_column[j - 1].push_back({int(i - 1), v});  // both triangles stored: keep the upper one
+    triplets.emplace_back(int(i - 1), int(j - 1), v);
   }
   dump.n = int(rows);
-  dump.column_start.push_back(0);
-  for (auto& column : by_column) {
-    std::sort(column.begin(), column.end());
-    for (const auto& [i, v] : column) dump.row.push_back(i), dump.value.push_back(v);
-    dump.column_start.push_back(int(dump.row.size()));
-  }
+  dump.matrix.resize(rows, columns);
+  dump.matrix.setFromTriplets(triplets.begin(), triplets.end());
   std::ifstream layout_file(dir + "/layout_step" + step + ".json");
   if (!layout_file) fail("cannot read " + dir + "/layout_step" + step + ".json");
   const nlohmann::json layout = nlohmann::json::parse(layout_file);
@@ -100,18 +96,8 @@ Timing factorise(Dump& dump, bool supernodal) {
   common.postorder = true;
   common.supernodal = supernodal ? CHOLMOD_SUPERNODAL : CHOLMOD_SIMPLICIAL;
   common.final_ll = supernodal;  // the solver's simplicial factor is LDL^T
-  cholmod_sparse A{};
-  A.nrow = A.ncol = dump.n;
-  A.nzmax = dump.row.size();
-  A.p = dump.column_start.data();
-  A.i = dump.row.data();
-  A.x = dump.value.data();
-  A.stype = 1;
-  A.itype = CHOLMOD_INT;
-  A.xtype = CHOLMOD_REAL;
-  A.dtype = CHOLMOD_DOUBLE;
-  A.sorted = 1;
-  A.packed = 1;
+  const Eigen::SparseMatrix<double>& full = dump.matrix;
+  cholmod_sparse A = Eigen::viewAsCholmod(full.selfadjointView<Eigen::Upper>());  // stype 1: the upper triangle
   cholmod_factor* L = cholmod_analyze_p(&A, dump.order.data(), nullptr, 0, &common);
   if (!L) fail("analysis failed on " + dump.name);
   Timing timing;
