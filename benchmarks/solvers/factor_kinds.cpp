@@ -121,10 +121,11 @@ Timing factorise(Dump& dump, bool supernodal) {
 
 int main(int argc, char** argv) {
   if (argc < 2) fail("usage: factor_kinds DUMP_DIR:STEP [DUMP_DIR:STEP ...]");
+  std::vector<Dump> dumps;  // all read first: a missing file stops before any output
+  for (int k = 1; k < argc; ++k) dumps.push_back(read_dump(argv[k]));
   std::printf("| matrix | dim | unknowns | nnz(L) | flops / nnz(L) | simplicial LDL^T (ms) | supernodal LL^T (ms) | simplicial / supernodal |\n");
   std::printf("|---|---|---|---|---|---|---|---|\n");
-  for (int k = 1; k < argc; ++k) {
-    Dump dump = read_dump(argv[k]);
+  for (Dump& dump : dumps) {
     const Timing simplicial = factorise(dump, false), supernodal = factorise(dump, true);
     std::printf("| %s | %d | %d | %.3g | %.0f | %.1f | %.1f | %.2f |\n", dump.name.c_str(), dump.dim, dump.n, simplicial.lnz,
                 simplicial.flops / simplicial.lnz, simplicial.milliseconds, supernodal.milliseconds,
