@@ -21,6 +21,7 @@
 // (Simulation::correct_fluid_positions, method.md#position-correction).
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <fmt/format.h>
 #include <vector>
@@ -100,12 +101,15 @@ void displace_fluid_particles(const Grid<dim>& grid, const FluidOperators<dim>& 
 // `largest_step`; the caller keeps them in the domain. With `walls_on_corners` a wall
 // corner's normal displacement is held (zero inverse mass) instead of a row per wall face,
 // as in the step's own system (method.md#walls-on-corners): in 3-D the face rows made the
-// correction's CG take 7x the iterations of the pressure solve. Returns the number of
-// unknowns of its system.
+// correction's CG take 7x the iterations of the pressure solve. A direct solve eliminates
+// the unknowns in the order of their cells' `cell_rank` (the grid's nested dissection, as
+// the step's own solve; empty: AMD on each new pattern). Returns the number of unknowns of
+// its system.
 template <int dim>
 int correct_fluid_positions(const Grid<dim>& grid, Particles<dim>& fluid, const Particles<dim>& solid,
                             const std::array<std::array<bool, 2>, dim>& slip, bool walls_on_corners, Real density,
-                            Real relaxation, Real largest_step, const LinearSolverOptions& solver_options) {
+                            Real relaxation, Real largest_step, const LinearSolverOptions& solver_options,
+                            const std::vector<int>& cell_rank) {
   const ParticleBins<dim> bins = sort_particles_by_cell(grid, fluid);
   GridMomentum<dim> momentum;
   fluid_particles_to_grid(grid, fluid, bins, momentum);
@@ -120,6 +124,7 @@ int correct_fluid_positions(const Grid<dim>& grid, Particles<dim>& fluid, const 
   const auto mostly_solid = [&](int k) { return solid_volume[k] >= Real(0.5) * cell_volume; };
   // Faces between a fluid cell and a (mostly) solid cell without fluid: no displacement.
   std::vector<Triplet> solid_face_rows;
+  std::vector<int> solid_face_cell;  // the fluid cell of each solid face row
   int solid_faces = 0;
   if (has_solids) {
     const GridLayout<dim> corners = grid.corners();
@@ -140,7 +145,10 @@ int correct_fluid_positions(const Grid<dim>& grid, Particles<dim>& fluid, const 
             const int dof = ops.dof_of_corner[corners.index(cell + offset)];
             if (dof >= 0) solid_face_rows.emplace_back(solid_faces, dof * dim + axis, face_weight * normal);
           });
-          if (solid_face_rows.size() > before) ++solid_faces;  // an empty row would be singular
+          if (solid_face_rows.size() > before) {  // an empty row would be singular
+            ++solid_faces;
+            solid_face_cell.push_back(ops.cell_of_pressure[i]);
+          }
         }
     }
   }
@@ -177,6 +185,18 @@ int correct_fluid_positions(const Grid<dim>& grid, Particles<dim>& fluid, const 
   Eigen::VectorXd rhs = -Eigen::Map<const Eigen::VectorXd>(target.data(), Eigen::Index(target.size()));
   Eigen::VectorXd q;
   auto solver = make_linear_solver(solver_options, correction.unknowns(), dim);
+  if (solver->kind() != LinearSolverKind::pcg && !cell_rank.empty()) {
+    // Unknowns by their cell's rank, those of one cell in block order (p_f, y, solid faces).
+    std::vector<int> cell_of_unknown(ops.cell_of_pressure.begin(), ops.cell_of_pressure.end());
+    for (int k = 0; k < wall_rows; ++k) cell_of_unknown.push_back(ops.wall_faces[k].dual_cell);
+    cell_of_unknown.insert(cell_of_unknown.end(), solid_face_cell.begin(), solid_face_cell.end());
+    std::vector<std::pair<int, int>> keyed(cell_of_unknown.size());
+    for (std::size_t u = 0; u < keyed.size(); ++u) keyed[u] = {cell_rank[cell_of_unknown[u]], int(u)};
+    std::sort(keyed.begin(), keyed.end());
+    std::vector<int> order(keyed.size());
+    for (std::size_t k = 0; k < keyed.size(); ++k) order[k] = keyed[k].second;
+    solver->suggest_order(std::move(order));
+  }
   const auto stats = solver->solve(correction.matrix(), rhs, q);
   if (!stats.converged || !q.allFinite())
     throw NumericalFailure(fmt::format("position correction solve did not converge (relative residual {:.3g})", stats.relative_residual));
