@@ -28,6 +28,7 @@
 
 #include "core/errors.h"
 #include "fluid/fluid_operators.h"
+#include "grid/nested_dissection.h"
 #include "linear_solver/linear_solver.h"
 #include "particles/volume_per_cell.h"
 #include "pressure/pressure_system.h"
@@ -186,16 +187,11 @@ int correct_fluid_positions(const Grid<dim>& grid, Particles<dim>& fluid, const 
   Eigen::VectorXd q;
   auto solver = make_linear_solver(solver_options, correction.unknowns(), dim);
   if (solver->kind() != LinearSolverKind::pcg && !cell_rank.empty()) {
-    // Unknowns by their cell's rank, those of one cell in block order (p_f, y, solid faces).
+    // The cell of each unknown: p_f rows, then wall rows, then solid-face rows.
     std::vector<int> cell_of_unknown(ops.cell_of_pressure.begin(), ops.cell_of_pressure.end());
     for (int k = 0; k < wall_rows; ++k) cell_of_unknown.push_back(ops.wall_faces[k].dual_cell);
     cell_of_unknown.insert(cell_of_unknown.end(), solid_face_cell.begin(), solid_face_cell.end());
-    std::vector<std::pair<int, int>> keyed(cell_of_unknown.size());
-    for (std::size_t u = 0; u < keyed.size(); ++u) keyed[u] = {cell_rank[cell_of_unknown[u]], int(u)};
-    std::sort(keyed.begin(), keyed.end());
-    std::vector<int> order(keyed.size());
-    for (std::size_t k = 0; k < keyed.size(); ++k) order[k] = keyed[k].second;
-    solver->suggest_order(std::move(order));
+    solver->suggest_order(order_by_cell_rank(cell_of_unknown, cell_rank));
   }
   const auto stats = solver->solve(correction.matrix(), rhs, q);
   if (!stats.converged || !q.allFinite())

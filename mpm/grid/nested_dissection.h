@@ -8,6 +8,8 @@
 // fill up to a constant (George 1973).
 #pragma once
 
+#include <algorithm>
+#include <utility>
 #include <vector>
 
 #include "grid/grid.h"
@@ -52,6 +54,18 @@ std::vector<int> nested_dissection_rank(const GridLayout<dim>& cells, const IVec
   };
   dissect(dissect, IVec<dim>::Zero(), extent);
   return rank;
+}
+
+// The elimination order of a system's unknowns: by the rank of their dual cell
+// (`cell_of_unknown[u]`), unknowns of one cell in index order (a system's blocks follow one
+// another, so that is block order).
+inline std::vector<int> order_by_cell_rank(const std::vector<int>& cell_of_unknown, const std::vector<int>& rank) {
+  std::vector<std::pair<int, int>> keyed(cell_of_unknown.size());
+  for (std::size_t u = 0; u < keyed.size(); ++u) keyed[u] = {rank[cell_of_unknown[u]], int(u)};
+  std::sort(keyed.begin(), keyed.end());
+  std::vector<int> order(keyed.size());
+  for (std::size_t k = 0; k < keyed.size(); ++k) order[k] = keyed[k].second;
+  return order;
 }
 
 }  // namespace iqmpm

@@ -11,6 +11,7 @@
 
 #include "core/errors.h"
 #include "interface/interface_force.h"
+#include "grid/nested_dissection.h"
 #include "interface/solid_corners.h"
 #include "simulation/simulation.h"
 
@@ -334,13 +335,7 @@ void Simulation<dim>::measure_interface_forces() {
 // dissection, those of one cell in block order (p_g, p_f, y, h).
 template <int dim>
 std::vector<int> Simulation<dim>::grid_order_of_unknowns() const {
-  const std::vector<int> cell = dual_cell_of_unknowns();
-  std::vector<std::pair<int, int>> keyed(cell.size());
-  for (std::size_t u = 0; u < cell.size(); ++u) keyed[u] = {cell_rank_[cell[u]], int(u)};
-  std::sort(keyed.begin(), keyed.end());
-  std::vector<int> order(cell.size());
-  for (std::size_t k = 0; k < keyed.size(); ++k) order[k] = keyed[k].second;
-  return order;
+  return order_by_cell_rank(dual_cell_of_unknowns(), cell_rank_);
 }
 
 // (-1)^(i+j[+k]) of each unknown's dual cell (docs/method.md#linear-solver: the Q1-P0
