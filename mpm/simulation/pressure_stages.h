@@ -10,8 +10,8 @@
 #include <utility>
 
 #include "core/errors.h"
-#include "interface/interface_force.h"
 #include "grid/nested_dissection.h"
+#include "interface/interface_force.h"
 #include "interface/solid_corners.h"
 #include "simulation/simulation.h"
 

@@ -69,11 +69,15 @@ TYPED_TEST_SUITE(PositionCorrectionAtABodyTest, testing::Dimensions);
 // next to empty space (expanded only) the ring gave water off and never took it back, and
 // a floating body rode on a depleted layer (method.md#position-correction). Returns the
 // ring's excess volume fraction phi - 1 before and after.
-// `grid_order`: the direct solve (solver.method = ldlt, in 2-D and 3-D) in the grid's
-// nested-dissection order, as the simulation passes it; otherwise the default solver
-// (ldlt in 2-D, PCG in 3-D) and AMD. `after` receives the corrected particles.
+// How the correction's system is solved: the default solver (ldlt in 2-D, PCG in 3-D), or
+// LDL^T (in 2-D and 3-D) in AMD's order or in the grid's nested-dissection order, as the
+// simulation passes it.
+enum class CorrectionSolve { scene_default, ldlt_amd, ldlt_grid_order };
+
+// `after` receives the corrected particles.
 template <int dim>
-std::pair<Real, Real> ring_excess(Real scale, bool grid_order = false, Particles<dim>* after = nullptr) {
+std::pair<Real, Real> ring_excess(Real scale, CorrectionSolve solve = CorrectionSolve::scene_default,
+                                  Particles<dim>* after = nullptr) {
   const Real dx = dim == 2 ? 0.05 : 0.1;
   Json doc = testing::fluid_box_scene(dim, dx, testing::xyz<dim>(1, 0.8, 1), testing::xyz<dim>(1, 1, 1));
   const std::vector<Real> lo = testing::xyz<dim>(0.3, 0.3, 0.3), hi = testing::xyz<dim>(0.7, 0.5, 0.7);
@@ -112,8 +116,9 @@ std::pair<Real, Real> ring_excess(Real scale, bool grid_order = false, Particles
     for (int s = 0; s < 2; ++s) slip[a][s] = sim.slip_wall(a, s);
   LinearSolverOptions solver;
   solver.tolerance = 1e-10;
-  if (grid_order) solver.method = LinearSolverMethod::ldlt;
-  const std::vector<int> rank = grid_order ? nested_dissection_rank<dim>(grid.dual_cells(), grid.cells) : std::vector<int>();
+  if (solve != CorrectionSolve::scene_default) solver.method = LinearSolverMethod::ldlt;
+  const std::vector<int> rank =
+      solve == CorrectionSolve::ldlt_grid_order ? nested_dissection_rank<dim>(grid.dual_cells(), grid.cells) : std::vector<int>();
   correct_fluid_positions<dim>(grid, fluid, sim.solid(), slip, sim.options().walls_on_corners, 1000, 1,
                                Real(0.5) * dx / sim.scene().particles_per_axis, solver, rank);
   if (after) *after = fluid;
@@ -144,8 +149,8 @@ TYPED_TEST(PositionCorrectionAtABodyTest, FillsASparseRingAsItSpreadsACrowdedOne
 TYPED_TEST(PositionCorrectionAtABodyTest, GridOrderMovesTheParticlesAsAmdOrderDoes) {
   constexpr int dim = TypeParam::value;
   Particles<dim> amd, grid;
-  ring_excess<dim>(0.8, false, &amd);
-  ring_excess<dim>(0.8, true, &grid);
+  ring_excess<dim>(0.8, CorrectionSolve::ldlt_amd, &amd);
+  ring_excess<dim>(0.8, CorrectionSolve::ldlt_grid_order, &grid);
   ASSERT_EQ(amd.size(), grid.size());
   Real largest = 0;
   for (std::size_t p = 0; p < amd.size(); ++p) largest = std::max(largest, (amd.position[p] - grid.position[p]).norm());
