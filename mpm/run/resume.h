@@ -19,7 +19,7 @@
 namespace iqmpm {
 
 inline bool may_change_on_resume(const std::string& key) {
-  for (const char* exact : {"end_time", "cfl", "dt_min", "dt_max", "write_pressure_fields"})
+  for (const char* exact : {"end_time", "cfl", "spray_cfl", "dt_min", "dt_max", "write_pressure_fields"})
     if (key == exact) return true;
   for (const char* section : {"checkpoint.", "solver.", "newton."})
     if (key.rfind(section, 0) == 0) return true;
@@ -42,7 +42,7 @@ inline SceneSpec scene_to_resume(const StateArchive& checkpoint, const std::vect
     const std::string key = assignment.substr(0, assignment.find('='));
     if (!may_change_on_resume(key))
       throw InputError(fmt::format("--set '{}': a resumed run continues the checkpoint's particles, so '{}' cannot change; "
-                                   "accepted: end_time, cfl, dt_min, dt_max, write_pressure_fields, checkpoint.*, "
+                                   "accepted: end_time, cfl, spray_cfl, dt_min, dt_max, write_pressure_fields, checkpoint.*, "
                                    "solver.*, newton.*", assignment, key));
     apply_override(document, assignment);
   }

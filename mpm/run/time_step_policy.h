@@ -1,5 +1,7 @@
 // The whole time-step policy in one place (method.md §3, time step): dt = cfl dx /
-// max(particle speed, sqrt(|g| dx)), capped at dt_max and, with solid_step_error, at the
+// max(particle speed, sqrt(|g| dx)), where a fluid particle of spray (its cell holds at most
+// half a cell of water and solid) counts at cfl / spray_cfl of its speed
+// (method.md#time-step), capped at dt_max and, with solid_step_error, at the
 // dt that keeps the solids' estimated local error at that tolerance
 // (method.md#solid-time-step), then clamped to the next output stop (a frame time or the
 // end) without leaving a sliver step; a dt below dt_min stops the run. There is no
@@ -9,8 +11,10 @@
 #include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
+#include <vector>
 
 #include "core/errors.h"
+#include "particles/volume_per_cell.h"
 #include "scene/scene.h"
 #include "simulation/simulation.h"
 #include "solid/step_error.h"
@@ -21,6 +25,7 @@ class TimeStepPolicy {
  public:
   explicit TimeStepPolicy(const SceneSpec& scene)
       : cfl_(scene.cfl),
+        spray_cfl_(scene.spray_cfl),
         dt_min_(scene.dt_min),
         dt_max_(scene.dt_max),
         solid_step_error_(scene.solid_step_error),
@@ -29,11 +34,24 @@ class TimeStepPolicy {
   // dt from the particle speeds and the solids' error (no output stop).
   template <int dim>
   Real stable_dt(const Simulation<dim>& sim) const {
+    const Grid<dim>& grid = sim.grid();
+    const Particles<dim>& fluid = sim.fluid();
+    // Spray moves up to spray_cfl cells a step: its speed counts at cfl / spray_cfl.
+    const std::vector<Real> material = spray_cfl_ != cfl_ ? material_volume_per_cell(sim) : std::vector<Real>();
+    const GridLayout<dim> cells = grid.dual_cells();
+    const Real spray_volume = Real(0.5 + 1e-9) * grid.cell_volume();  // half a cell, to round-off
     Real max_speed = 0;
-    for (const auto& v : sim.fluid().velocity) max_speed = std::max(max_speed, v.norm());
+    for (std::size_t p = 0; p < fluid.size(); ++p) {
+      Real speed = fluid.velocity[p].norm();
+      if (!material.empty()) {
+        const IVec<dim> cell = dual_cell_of<dim>(grid.to_cells(fluid.position[p]));
+        if (cells.contains(cell) && material[cells.index(cell)] <= spray_volume) speed *= cfl_ / spray_cfl_;
+      }
+      max_speed = std::max(max_speed, speed);
+    }
     for (const auto& v : sim.solid().velocity) max_speed = std::max(max_speed, v.norm());
     // A particle at rest gains sqrt(|g| dx) falling one cell: the floor keeps the first steps safe.
-    const Real dx = sim.grid().dx;
+    const Real dx = grid.dx;
     const Real speed = std::max(max_speed, std::sqrt(sim.gravity().norm() * dx));
     Real dt = speed > 0 ? cfl_ * dx / speed : dt_max_;
     if (solid_step_error_ > 0) dt = std::min(dt, solid_error_dt_limit(sim.solid_step_error(), solid_step_error_));
@@ -67,7 +85,18 @@ class TimeStepPolicy {
   bool finished(double t) const { return !(t < end_time_ * (1 - 1e-12)); }
 
  private:
-  Real cfl_, dt_min_, dt_max_;
+  // The water's and the solids' volume in each dual cell, the solids' at their current J.
+  template <int dim>
+  static std::vector<Real> material_volume_per_cell(const Simulation<dim>& sim) {
+    std::vector<Real> volume = particle_volume_per_cell(sim.grid(), sim.fluid(), false);
+    if (!sim.solid().empty()) {
+      const std::vector<Real> solid = particle_volume_per_cell(sim.grid(), sim.solid(), true);
+      for (std::size_t k = 0; k < volume.size(); ++k) volume[k] += solid[k];
+    }
+    return volume;
+  }
+
+  Real cfl_, spray_cfl_, dt_min_, dt_max_;
   Real solid_step_error_;  // 0: the solids do not limit dt
   double end_time_;
 };

@@ -246,6 +246,11 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
     health.finish();
   }
   scene.cfl = root.number("cfl", 0.5, 0, 1, "CFL number: dt = cfl dx / max(particle speed, sqrt(|g| dx))", true);
+  scene.spray_cfl = root.number("spray_cfl", std::max(scene.cfl, std::min(2 * scene.cfl, Real(0.8))), 0, 1,
+                                "CFL number of spray: a fluid particle whose cell holds at most half a cell of water "
+                                "and solid moves at most spray_cfl cells a step; default twice cfl, at most 0.8, never "
+                                "below cfl (spray_cfl = cfl: every particle at cfl)",
+                                true);
   scene.dt_min = root.number("dt_min", 1e-7, 0, kInf, "smallest time step (s); a smaller one needed stops the run", true);
   scene.dt_max = root.number("dt_max", 1e-2, 0, kInf, "largest time step (s)", true);
   if (!docs && scene.dt_min > scene.dt_max) throw InputError("scene key 'dt_min': must not exceed dt_max");

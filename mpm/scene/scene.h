@@ -144,6 +144,7 @@ struct SceneSpec {
   CheckpointSpec checkpoint;
   HealthSpec health;
   Real cfl = 0.5;
+  Real spray_cfl = 0.8;    // spray (a cell with at most half a cell of material) moves up to this many cells a step
   Real dt_min = 1e-7, dt_max = 1e-2;
   SolidTimeIntegration solid_time_integration = SolidTimeIntegration::implicit_euler;
   Real solid_step_error = 0;  // the solids' local error a step, relative to their displacement; 0: not estimated
