@@ -190,9 +190,9 @@ class Verdict:
 
 def _log_reason(run_dir: Path) -> str:
     """The solver's last log line, without its "[hh:mm:ss] " stamp."""
-    from compare.validate import _last_log_line
+    from compare.children import last_log_line
 
-    line = _last_log_line(run_dir / "iqmpm.log")
+    line = last_log_line(run_dir / "iqmpm.log")
     return re.sub(r"^\[\d\d:\d\d:\d\d\]\s*", "", line) or "no message"
 
 
@@ -262,7 +262,7 @@ def run_solver(s: Settings, cell: Cell, progress):
     Returns (ChildResult, run folder). The classification is left to the main thread:
     compare.io reads frames with stdout and stderr redirected (meshio prints), which is
     not safe in two threads at once."""
-    from compare.validate import run_child
+    from compare.children import run_child
 
     scene = SCENES[cell.scene]
     scene_path = s.repo / scene.path
@@ -288,7 +288,7 @@ def _duration(seconds: float) -> str:
 def run_map(s: Settings, progress=None) -> list[CellResult]:
     """Run every cell, ``jobs`` at a time, the costliest first; one line per finished cell
     with runs done / total and an ETA from the cost of what is left."""
-    from compare.validate import Progress
+    from compare.children import Progress
 
     progress = progress or Progress()
     if not s.solver_bin.is_file():
