@@ -1,6 +1,6 @@
 // The time step's CFL rule (run/time_step_policy.h, method.md#time-step): a particle of the
 // water's bulk moves at most cfl cells a step, spray (a cell holding at most half a cell of
-// material) at most spray_cfl, and spray_cfl = cfl is the single rule.
+// material, water and solid) at most spray_cfl, and spray_cfl = cfl is the single rule.
 #include <cmath>
 
 #include "run/time_step_policy.h"
@@ -102,6 +102,27 @@ TYPED_TEST(TimeStepPolicyTest, SprayIsAtMostHalfACell) {
   // One of them back into the column: half a cell left, spray.
   sim.fluid().position[moved.back()] = sim.fluid().position[0];
   set_speeds(sim, {moved.begin(), moved.end() - 1}, speed);
+  EXPECT_NEAR(policy.stable_dt(sim), scene.spray_cfl * dx / speed, 1e-12 * dx / speed);
+}
+
+// The solids' volume counts: a fluid particle alone among a body's particles is not spray
+// (the submerged block, clamped; its water at rest).
+TYPED_TEST(TimeStepPolicyTest, AFluidParticleInsideABodyIsNotSpray) {
+  constexpr int dim = TypeParam::value;
+  const SceneSpec scene = read_scene(testing::submerged_block_document<dim>("submerged_block.json"));
+  Simulation<dim> sim(scene);
+  const TimeStepPolicy policy(scene);
+  const Real dx = sim.grid().dx, speed = 50;  // fast enough that dt_max does not bind
+  ASSERT_LT(scene.spray_cfl * dx / speed, scene.dt_max);
+  Vec<dim> centre = Vec<dim>::Constant(Real(0.5) * dx);  // a cell centre inside the block
+  centre[0] += 0.5, centre[1] += 0.25;
+  if constexpr (dim == 3) centre[2] += 0.2;
+  sim.fluid().position[0] = centre;
+  set_speeds(sim, {0}, speed);
+  EXPECT_DOUBLE_EQ(policy.stable_dt(sim), scene.cfl * dx / speed);
+  // The same particle in an empty cell above the water: spray.
+  centre[1] = 0.7 + Real(0.5) * dx;
+  sim.fluid().position[0] = centre;
   EXPECT_NEAR(policy.stable_dt(sim), scene.spray_cfl * dx / speed, 1e-12 * dx / speed);
 }
 
