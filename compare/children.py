@@ -44,6 +44,8 @@ class Progress:
 
 
 def last_log_line(log: Path) -> str:
+    """The last non-empty line of ``log`` (from its last 4 KiB, at most 100 characters),
+    our own command echo skipped; "" when there is none or the log cannot be read."""
     try:
         with open(log, "rb") as fh:
             fh.seek(max(0, log.stat().st_size - 4096))
