@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/errors.h"
+#include "linear_solver/subtree_factorisation.h"
 
 namespace iqmpm {
 namespace {
@@ -60,6 +61,9 @@ Sparse with_diagonal_shift(const Sparse& A) {
 // 1.99 / 4.43 of it on 3-D floating cubes (135 / 244 / 493). CHOLMOD's default, 40, sent
 // the 2-D dam break supernodal (method.md#linear-solver).
 constexpr double kSupernodalSwitch = 130;
+
+// The smallest system whose simplicial factorisation runs on two threads (subtree_factorisation.h).
+constexpr int kSubtreeRows = 4096;
 
 // CHOLMOD's supernodal factorisation and solves call BLAS and LAPACK (OpenBLAS's OpenMP
 // build, .ci/setup.sh), whose threaded dpotrf / dgemm round differently from their serial
@@ -150,21 +154,24 @@ class DirectSolver final : public LinearSolver {
 class UpdatableLdlSolver final : public LinearSolver {
  public:
   explicit UpdatableLdlSolver(bool simplicial) {
-    cholmod_start(&common_);
-    common_.nmethods = 1;
-    common_.method[0].ordering = CHOLMOD_AMD;
-    // CHOLMOD_AUTO: supernodal LL^T (BLAS-3) where the factor is dense enough (flops /
-    // nnz(L) at least kSupernodalSwitch), else simplicial LDL^T; always simplicial where rows
-    // are modified or the system is quasi-definite.
-    common_.supernodal = simplicial ? CHOLMOD_SIMPLICIAL : CHOLMOD_AUTO;
-    common_.supernodal_switch = kSupernodalSwitch;
-    common_.final_ll = false;
-    common_.print = 0;
-    common_.error_handler = nullptr;
+    for (cholmod_common* common : {&common_, &helper_common_}) {
+      cholmod_start(common);
+      common->nmethods = 1;
+      common->method[0].ordering = CHOLMOD_AMD;
+      // CHOLMOD_AUTO: supernodal LL^T (BLAS-3) where the factor is dense enough (flops /
+      // nnz(L) at least kSupernodalSwitch), else simplicial LDL^T; always simplicial where
+      // rows are modified or the system is quasi-definite.
+      common->supernodal = simplicial ? CHOLMOD_SIMPLICIAL : CHOLMOD_AUTO;
+      common->supernodal_switch = kSupernodalSwitch;
+      common->final_ll = false;
+      common->print = 0;
+      common->error_handler = nullptr;
+    }
   }
   ~UpdatableLdlSolver() override {
     if (factor_) cholmod_free_factor(&factor_, &common_);
     cholmod_finish(&common_);
+    cholmod_finish(&helper_common_);
   }
   UpdatableLdlSolver(const UpdatableLdlSolver&) = delete;
   UpdatableLdlSolver& operator=(const UpdatableLdlSolver&) = delete;
@@ -218,7 +225,11 @@ class UpdatableLdlSolver final : public LinearSolver {
 
  private:
   cholmod_common common_;
+  cholmod_common helper_common_;  // the second thread's workspace (factorise_by_subtrees)
   cholmod_factor* factor_ = nullptr;
+  SubtreeSchedule schedule_;      // of factor_'s analysis; planned at its first factorisation
+  bool schedule_planned_ = false;
+  int factor_threads_ = 1;        // of the last factorisation
   bool factor_valid_ = false;
   SparsityPattern pattern_;
   std::vector<int> permuted_;  // original index -> row of L
@@ -236,6 +247,7 @@ class UpdatableLdlSolver final : public LinearSolver {
     if (factor_shifted_) refine(A, b, x, stats.relative_residual);
     stats.shifted = factor_shifted_;
     stats.supernodal = factor_->is_super;
+    stats.factor_threads = factor_threads_;
     stats.converged = std::isfinite(stats.relative_residual);
     return stats;
   }
@@ -269,11 +281,33 @@ class UpdatableLdlSolver final : public LinearSolver {
     permuted_.assign(A.rows(), 0);
     for (int k = 0; k < int(A.rows()); ++k) permuted_[perm[k]] = k;
     factor_valid_ = false;
+    schedule_ = SubtreeSchedule{};
+    schedule_planned_ = false;
   }
 
+  // A simplicial factor of at least kSubtreeRows unknowns on two threads where the run has
+  // them (linear_solver/subtree_factorisation.h: the same L bit for bit), else
+  // cholmod_factorize.
   bool factorise(const Sparse& A) {
+    const bool two_threads = omp_get_max_threads() >= 2 && !factor_->is_super && A.rows() >= kSubtreeRows;
     cholmod_sparse s = view(A);
     const SerialBlasScope serial_blas;
+    if (two_threads) {
+      // S = triu(P A P'), as cholmod_factorize builds it.
+      cholmod_sparse* lower = cholmod_ptranspose(&s, 2, static_cast<int*>(factor_->Perm), nullptr, 0, &common_);
+      cholmod_sparse* upper = lower ? cholmod_ptranspose(lower, 2, nullptr, nullptr, 0, &common_) : nullptr;
+      cholmod_free_sparse(&lower, &common_);
+      if (!upper) throw NumericalFailure("CHOLMOD could not permute the pressure system (out of memory?)");
+      if (!schedule_planned_) schedule_ = plan_subtree_schedule(upper, factor_, &common_), schedule_planned_ = true;
+      if (!schedule_.empty()) {
+        factor_threads_ = 2;
+        factor_valid_ = factorise_by_subtrees(upper, factor_, schedule_, &common_, &helper_common_);
+        cholmod_free_sparse(&upper, &common_);
+        return factor_valid_;
+      }
+      cholmod_free_sparse(&upper, &common_);
+    }
+    factor_threads_ = 1;
     cholmod_factorize(&s, factor_, &common_);
     factor_valid_ = common_.status == CHOLMOD_OK && factor_->minor == factor_->n;
     return factor_valid_;

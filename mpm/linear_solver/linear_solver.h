@@ -49,6 +49,7 @@ struct LinearSolveStats {
   bool shifted = false;       // direct solve: refactorised with a tiny diagonal shift after a zero pivot
   int modified_rows = 0;      // LDL^T: rows modified in its factorisation instead of factorising (0: factorised)
   bool supernodal = false;    // LDL^T: the factor CHOLMOD chose was supernodal LL^T (dense enough), not simplicial LDL^T
+  int factor_threads = 1;     // LDL^T: threads its last factorisation ran on (2: by subtrees, the same factor)
 };
 
 class LinearSolver {

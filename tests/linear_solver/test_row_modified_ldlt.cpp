@@ -9,6 +9,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include "linear_solver/linear_solver.h"
 #include "pressure/pressure_system.h"
@@ -190,6 +191,35 @@ TEST(LdltFactorKindTest, SimplicialIn2DSupernodalIn3DEachMatchingEigen) {
     ASSERT_TRUE(llt->solve(A, b, y).converged);
     EXPECT_LT((y - reference).norm(), 1e-11 * reference.norm());
   }
+}
+
+// On two threads the simplicial LDL^T computes independent subtrees of the elimination tree
+// at once (linear_solver/subtree_factorisation.h): the same factor bit for bit, so the same
+// solution as on one thread, and Eigen's.
+TEST(LdltFactorKindTest, TwoThreadsFactoriseBySubtreesToTheSameBits) {
+  const SparseMatrix A = block_stencil(100, 2, 5);  // 10 000 unknowns: above the two-thread minimum
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<Real> uniform(-1, 1);
+  const Eigen::VectorXd b = Eigen::VectorXd::NullaryExpr(A.rows(), [&] { return uniform(rng); });
+  const int threads = omp_get_max_threads();
+  Eigen::VectorXd x[2];
+  for (int t : {1, 2}) {
+    omp_set_num_threads(t);
+    auto solver = make_linear_solver(LinearSolverOptions{LinearSolverMethod::ldlt}, int(A.rows()), 2);
+    x[t - 1] = Eigen::VectorXd::Zero(A.rows());
+    const LinearSolveStats stats = solver->solve(A, b, x[t - 1]);
+    ASSERT_TRUE(stats.converged);
+    EXPECT_EQ(stats.factor_threads, t);
+    EXPECT_LT(stats.relative_residual, 1e-12);
+    // The second solve of the same pattern reuses the analysis and its schedule.
+    Eigen::VectorXd again = Eigen::VectorXd::Zero(A.rows());
+    EXPECT_EQ(solver->solve(A, b, again).factor_threads, t);
+    EXPECT_EQ((again - x[t - 1]).cwiseAbs().maxCoeff(), 0);
+  }
+  omp_set_num_threads(threads);
+  EXPECT_EQ((x[1] - x[0]).cwiseAbs().maxCoeff(), 0);
+  const Eigen::VectorXd reference = Eigen::SimplicialLDLT<SparseMatrix>(A).solve(b);
+  EXPECT_LT((x[1] - reference).norm(), 1e-11 * reference.norm());
 }
 
 }  // namespace
