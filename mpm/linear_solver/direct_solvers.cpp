@@ -286,8 +286,8 @@ class UpdatableLdlSolver final : public LinearSolver {
   }
 
   // A simplicial factor of at least kSubtreeRows unknowns on two threads where the run has
-  // them (linear_solver/subtree_factorisation.h: the same L bit for bit), else
-  // cholmod_factorize.
+  // them and its elimination tree splits (linear_solver/subtree_factorisation.h: the same L
+  // bit for bit), else cholmod_factorize.
   bool factorise(const Sparse& A) {
     const bool two_threads = omp_get_max_threads() >= 2 && !factor_->is_super && A.rows() >= kSubtreeRows;
     cholmod_sparse s = view(A);
@@ -299,13 +299,10 @@ class UpdatableLdlSolver final : public LinearSolver {
       cholmod_free_sparse(&lower, &common_);
       if (!upper) throw NumericalFailure("CHOLMOD could not permute the pressure system (out of memory?)");
       if (!schedule_planned_) schedule_ = plan_subtree_schedule(upper, factor_, &common_), schedule_planned_ = true;
-      if (!schedule_.empty()) {
-        factor_threads_ = 2;
-        factor_valid_ = factorise_by_subtrees(upper, factor_, schedule_, &common_, &helper_common_);
-        cholmod_free_sparse(&upper, &common_);
-        return factor_valid_;
-      }
+      factor_threads_ = schedule_.split() ? 2 : 1;
+      factor_valid_ = factorise_by_subtrees(upper, factor_, schedule_, &common_, &helper_common_);
       cholmod_free_sparse(&upper, &common_);
+      return factor_valid_;
     }
     factor_threads_ = 1;
     cholmod_factorize(&s, factor_, &common_);

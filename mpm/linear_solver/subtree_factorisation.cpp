@@ -7,11 +7,13 @@
 namespace iqmpm {
 
 SubtreeSchedule plan_subtree_schedule(cholmod_sparse* S, const cholmod_factor* L, cholmod_common* common) {
-  SubtreeSchedule schedule;
   const int n = int(L->n);
-  if (n < 2) return schedule;
+  SubtreeSchedule one_thread;
+  one_thread.after.emplace_back(0, n);
+  SubtreeSchedule schedule;
+  if (n < 2) return one_thread;
   std::vector<int> parent(n);
-  if (!cholmod_etree(S, parent.data(), common)) return schedule;
+  if (!cholmod_etree(S, parent.data(), common)) return one_thread;
   const int* colcount = static_cast<const int*>(L->ColCount);
   std::vector<double> work(n);  // of the subtree rooted at each node
   std::vector<int> size(n, 1);
@@ -19,7 +21,7 @@ SubtreeSchedule plan_subtree_schedule(cholmod_sparse* S, const cholmod_factor* L
   for (int j = 0; j < n; ++j) work[j] = double(colcount[j]) * colcount[j];
   for (int j = 0; j < n; ++j) {
     if (parent[j] < 0) continue;
-    if (parent[j] <= j) return schedule;  // not postordered: no contiguous subtrees
+    if (parent[j] <= j) return one_thread;  // not postordered: no contiguous subtrees
     work[parent[j]] += work[j], size[parent[j]] += size[j];
     children[parent[j]].push_back(j);
   }
@@ -44,7 +46,7 @@ SubtreeSchedule plan_subtree_schedule(cholmod_sparse* S, const cholmod_factor* L
     frontier.insert(frontier.end(), children[heaviest].begin(), children[heaviest].end());
   }
   if (std::abs(schedule.bin_work[0] - schedule.bin_work[1]) > 0.1 * (schedule.bin_work[0] + schedule.bin_work[1]))
-    return SubtreeSchedule{};
+    return one_thread;
   std::vector<char> in_bin(n, 0);
   for (int b = 0; b < 2; ++b) {
     std::sort(bins[b].begin(), bins[b].end());
@@ -85,10 +87,12 @@ bool factorise_by_subtrees(cholmod_sparse* S, cholmod_factor* L, const SubtreeSc
     for (const auto& [begin, end] : ranges) ok = cholmod_rowfac(S, nullptr, beta, begin, end, L, common) && ok;
     return ok;
   };
-  bool second_ok = true;
-  std::thread helper([&] { second_ok = rows(schedule.bins[1], second); });
-  const bool first_ok = rows(schedule.bins[0], first);
-  helper.join();
+  bool first_ok = true, second_ok = true;
+  if (schedule.split()) {
+    std::thread helper([&] { second_ok = rows(schedule.bins[1], second); });
+    first_ok = rows(schedule.bins[0], first);
+    helper.join();
+  }
   const bool after_ok = rows(schedule.after, first);
   return first_ok && second_ok && after_ok && L->minor == std::size_t(n);
 }

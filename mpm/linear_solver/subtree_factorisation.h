@@ -21,13 +21,14 @@ struct SubtreeSchedule {
   std::array<std::vector<std::pair<int, int>>, 2> bins;  // per thread: row ranges [first, end), in order
   std::vector<std::pair<int, int>> after;                // the other rows, in order, after both bins
   double bin_work[2] = {0, 0}, after_work = 0;           // sum of column count^2 of their rows
-  bool empty() const { return bins[0].empty() || bins[1].empty(); }
+  bool split() const { return !bins[0].empty() && !bins[1].empty(); }
 };
 
 // The schedule for the symbolic simplicial factor L (postordered) of S = triu(P A P'):
 // starting from the children of the root (below the chain of single-child nodes at the
 // top), the heaviest subtree is replaced by its children until two bins, filled largest
-// first, differ by at most 10 % of their total. Empty where no such split exists.
+// first, differ by at most 10 % of their total. Where no such split exists, every row
+// comes after (one thread, as cholmod_factorize).
 SubtreeSchedule plan_subtree_schedule(cholmod_sparse* S, const cholmod_factor* L, cholmod_common* common);
 
 // L = the LDL^T factor of S by `schedule` (S = triu(P A P'), as cholmod_factorize builds

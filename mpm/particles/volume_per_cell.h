@@ -24,6 +24,18 @@ std::vector<Real> particle_volume_per_cell(const Grid<dim>& grid, const Particle
   return volume;
 }
 
+// The fluid's and the solids' volume in each dual cell (layout index), the solids' at
+// their current volume.
+template <int dim>
+std::vector<Real> material_volume_per_cell(const Grid<dim>& grid, const Particles<dim>& fluid, const Particles<dim>& solid) {
+  std::vector<Real> volume = particle_volume_per_cell(grid, fluid, false);
+  if (!solid.empty()) {
+    const std::vector<Real> solid_volume = particle_volume_per_cell(grid, solid, true);
+    for (std::size_t k = 0; k < volume.size(); ++k) volume[k] += solid_volume[k];
+  }
+  return volume;
+}
+
 // The same volume spread with multilinear weights over the dual cells around each
 // particle (centres at i + 1/2), so that it moves continuously with the particles;
 // weight falling on a cell beyond a side of the domain is reflected back into the cell

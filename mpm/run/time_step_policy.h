@@ -37,7 +37,7 @@ class TimeStepPolicy {
     const Grid<dim>& grid = sim.grid();
     const Particles<dim>& fluid = sim.fluid();
     // Spray moves up to spray_cfl cells a step: its speed counts at cfl / spray_cfl.
-    const std::vector<Real> material = spray_cfl_ != cfl_ ? material_volume_per_cell(sim) : std::vector<Real>();
+    const std::vector<Real> material = spray_cfl_ != cfl_ ? material_volume_per_cell(grid, fluid, sim.solid()) : std::vector<Real>();
     const GridLayout<dim> cells = grid.dual_cells();
     const Real spray_volume = Real(0.5 + 1e-9) * grid.cell_volume();  // half a cell, to round-off
     Real max_speed = 0;
@@ -85,17 +85,6 @@ class TimeStepPolicy {
   bool finished(double t) const { return !(t < end_time_ * (1 - 1e-12)); }
 
  private:
-  // The water's and the solids' volume in each dual cell, the solids' at their current J.
-  template <int dim>
-  static std::vector<Real> material_volume_per_cell(const Simulation<dim>& sim) {
-    std::vector<Real> volume = particle_volume_per_cell(sim.grid(), sim.fluid(), false);
-    if (!sim.solid().empty()) {
-      const std::vector<Real> solid = particle_volume_per_cell(sim.grid(), sim.solid(), true);
-      for (std::size_t k = 0; k < volume.size(); ++k) volume[k] += solid[k];
-    }
-    return volume;
-  }
-
   Real cfl_, spray_cfl_, dt_min_, dt_max_;
   Real solid_step_error_;  // 0: the solids do not limit dt
   double end_time_;
