@@ -5,9 +5,13 @@
 // on the corners); the projection does not add kinetic energy; with the transferred mass as
 // inertia the particles' momentum changes by the walls' impulse; PCG and CHOLMOD agree.
 // The coupled system (interface and ghost-matrix blocks, and the bordered system of the
-// solid's stiffness) satisfies its constraints after the solve.
+// solid's stiffness) satisfies its constraints after the solve. The product D W D^T that
+// assembles A matches Eigen's and does not depend on the thread count.
 #include <Eigen/Dense>
 
+#include <omp.h>
+
+#include <algorithm>
 #include <random>
 
 #include "diagnostics/measurements.h"
@@ -184,6 +188,48 @@ TEST(AddToDiagonalTest, EqualsCoeffRefEntryForEntry) {
     }
     EXPECT_FALSE(a || b) << "column " << c;
   }
+}
+
+// weighted_gram's A = s D W D^T against Eigen's sparse product on a random D with a few
+// zero weights (whose products stay out of A's pattern): the same entries to round-off,
+// and one thread and two give the same matrix bit for bit (rows are independent; 1 500
+// rows make six blocks, which the threads share).
+TEST(WeightedGramTest, EqualsTheSparseProductAndDoesNotDependOnTheThreadCount) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<Real> value(-1, 1);
+  const int rows = 1500, columns = 2400;
+  std::uniform_int_distribution<int> column(0, columns - 1);
+  std::vector<Eigen::Triplet<Real>> entries;
+  for (int i = 0; i < rows; ++i)
+    for (int k = 0; k < 6; ++k) entries.emplace_back(i, column(rng), value(rng));
+  SparseRowMatrix D(rows, columns);
+  D.setFromTriplets(entries.begin(), entries.end());
+  Eigen::VectorXd weight(columns);
+  for (int k = 0; k < columns; ++k) weight[k] = k % 17 == 0 ? 0 : 1 + value(rng);
+  const Real scale = 0.01;
+  const SparseMatrix by_column = D;
+  const SparseMatrix expected = scale * (by_column * weight.asDiagonal() * by_column.transpose());
+  const int threads = omp_get_max_threads();
+  omp_set_num_threads(1);
+  const SparseMatrix one = weighted_gram(D, weight, scale);
+  omp_set_num_threads(2);
+  const SparseMatrix two = weighted_gram(D, weight, scale);
+  omp_set_num_threads(threads);
+  ASSERT_EQ(one.nonZeros(), two.nonZeros());
+  EXPECT_TRUE(std::equal(one.valuePtr(), one.valuePtr() + one.nonZeros(), two.valuePtr()));
+  EXPECT_TRUE(std::equal(one.innerIndexPtr(), one.innerIndexPtr() + one.nonZeros(), two.innerIndexPtr()));
+  EXPECT_TRUE(std::equal(one.outerIndexPtr(), one.outerIndexPtr() + rows + 1, two.outerIndexPtr()));
+  EXPECT_LE((SparseMatrix(one - expected)).norm(), 1e-14 * expected.norm());
+  // The pattern: an entry where some column of non-zero weight joins the two rows.
+  int joined = 0;
+  for (int c = 0; c < rows; ++c)
+    for (SparseMatrix::InnerIterator it(one, c); it; ++it) {
+      bool through_weight = false;
+      for (SparseRowMatrix::InnerIterator a(D, it.row()); a && !through_weight; ++a)
+        through_weight = weight[a.col()] != 0 && D.coeff(c, a.col()) != 0;
+      joined += through_weight;
+    }
+  EXPECT_EQ(joined, one.nonZeros());
 }
 
 TEST(FluidInertiaTest, AutoTakesTheTransferredMassOnlyWithoutSolids) {
