@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Write docs/scene_keys.md from the solver's own key table (`iqmpm keys`).
 
-The solver fills every default in one place (mpm/scene/scene.cpp) and prints its keys with
+The solver fills every default in one place (mpm/scene/scene.cpp and the readers it calls) and prints its keys with
 `iqmpm keys`; this page is that output with a short header. Run from anywhere:
 
     /usr/bin/python3 docs/generate_scene_keys.py            # build/iqmpm -> docs/scene_keys.md
@@ -34,8 +34,9 @@ HEADER = f"""# Scene keys
      regenerate with `{REGENERATE}` after a build. -->
 
 A scene is a JSON file. The solver fills every default in one place
-(`mpm/scene/scene.cpp`) and rejects an unknown key, a wrong type or a value out of range
-with a message that names the key (exit code 2, nothing written), and so are a scene past
+(`mpm/scene/scene.cpp` and the readers it calls, `entry_keys.cpp` and `solver_keys.cpp`)
+and rejects an unknown key, a wrong type or a value out of range with a message that
+names the key (exit code 2, nothing written), and so are a scene past
 the solver's 32-bit indices and a run whose estimated peak memory or output passes
 `--max-memory` or `--max-output` (`iqmpm check` prints both estimates;
 [method.md](method.md#resource-limits)). Override any key on the
