@@ -103,14 +103,13 @@ void displace_fluid_particles(const Grid<dim>& grid, const FluidOperators<dim>& 
 // corner's normal displacement is held (zero inverse mass) instead of a row per wall face,
 // as in the step's own system (method.md#walls-on-corners): in 3-D the face rows made the
 // correction's CG take 7x the iterations of the pressure solve. A direct solve eliminates
-// the unknowns in the order of their cells' `cell_rank` (the grid's nested dissection, as
-// the step's own solve; empty: AMD on each new pattern). Returns the number of unknowns of
-// its system.
+// the unknowns in `cell_ordering`'s order of their cells (as the step's own solve; empty:
+// AMD on each new pattern). Returns the number of unknowns of its system.
 template <int dim>
 int correct_fluid_positions(const Grid<dim>& grid, Particles<dim>& fluid, const Particles<dim>& solid,
                             const std::array<std::array<bool, 2>, dim>& slip, bool walls_on_corners, Real density,
                             Real relaxation, Real largest_step, const LinearSolverOptions& solver_options,
-                            const std::vector<int>& cell_rank) {
+                            const CellOrdering<dim>& cell_ordering) {
   const ParticleBins<dim> bins = sort_particles_by_cell(grid, fluid);
   GridMomentum<dim> momentum;
   fluid_particles_to_grid(grid, fluid, bins, momentum);
@@ -186,12 +185,12 @@ int correct_fluid_positions(const Grid<dim>& grid, Particles<dim>& fluid, const 
   Eigen::VectorXd rhs = -Eigen::Map<const Eigen::VectorXd>(target.data(), Eigen::Index(target.size()));
   Eigen::VectorXd q;
   auto solver = make_linear_solver(solver_options, correction.unknowns(), dim);
-  if (solver->kind() != LinearSolverKind::pcg && !cell_rank.empty()) {
+  if (solver->kind() != LinearSolverKind::pcg && !cell_ordering.empty()) {
     // The cell of each unknown: p_f rows, then wall rows, then solid-face rows.
     std::vector<int> cell_of_unknown(ops.cell_of_pressure.begin(), ops.cell_of_pressure.end());
     for (int k = 0; k < wall_rows; ++k) cell_of_unknown.push_back(ops.wall_faces[k].dual_cell);
     cell_of_unknown.insert(cell_of_unknown.end(), solid_face_cell.begin(), solid_face_cell.end());
-    solver->suggest_order(order_by_cell_rank(cell_of_unknown, cell_rank));
+    solver->suggest_order(cell_ordering.order(cell_of_unknown));
   }
   const auto stats = solver->solve(correction.matrix(), rhs, q);
   if (!stats.converged || !q.allFinite())

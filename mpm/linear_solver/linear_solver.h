@@ -18,9 +18,10 @@ enum class Preconditioner { ic0, ichol, jacobi, boomeramg };
 // BoomerAMG on S A S with S the checkerboard signs of the unknowns' dual cells
 // (linear_solver/boomeramg.h): automatic = on in 3-D, off in 2-D (docs/method.md#linear-solver).
 enum class CheckerboardFlip { automatic, on, off };
-// The fill-reducing order of a direct solve: the grid's nested dissection, fixed for the
-// run (grid/nested_dissection.h), or AMD on each new pattern.
-enum class DirectOrdering { grid, amd };
+// The fill-reducing order of a direct solve (grid/nested_dissection.h): a nested
+// dissection of the cells each step's system has, the grid's, fixed for the run, or AMD on
+// each new pattern.
+enum class DirectOrdering { cells, grid, amd };
 // What make_linear_solver makes for a given system (automatic resolved).
 enum class LinearSolverKind { pcg, cholmod, ldlt };
 
@@ -30,7 +31,7 @@ struct LinearSolverOptions {
   Real tolerance = 1e-8;                // relative residual ||b - A x|| / ||b||
   int max_iterations = 2000;
   int direct_max_unknowns = 100000;     // auto, 2-D: direct LDL^T up to this size, PCG above
-  DirectOrdering ordering = DirectOrdering::grid;  // ldlt
+  DirectOrdering ordering = DirectOrdering::cells;  // ldlt
   // ldlt: keep the factor simplicial LDL^T, as row modifications (the unilateral
   // interface's rounds) and quasi-definite systems (the solid's stiffness) need; otherwise
   // CHOLMOD chooses supernodal LL^T where the factor is dense enough (3-D systems).

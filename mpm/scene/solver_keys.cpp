@@ -53,9 +53,10 @@ void read_solver_keys(JsonReader& solver, LinearSolverOptions& o, WarmStartSpec&
   o.max_iterations = solver.integer("max_iterations", o.max_iterations, 1, 1000000, "PCG iteration cap; reaching it stops the run");
   o.direct_max_unknowns = solver.integer("direct_max_unknowns", o.direct_max_unknowns, 0, std::numeric_limits<int>::max(), "auto: largest 2-D system solved directly");
   o.ordering = solver.option<DirectOrdering>(
-      "ordering", o.ordering, {{"grid", DirectOrdering::grid}, {"amd", DirectOrdering::amd}},
-      "ldlt's fill-reducing order: grid = nested dissection of the grid, fixed for the run (no ordering per step); "
-      "amd = AMD on each step's pattern");
+      "ordering", o.ordering, {{"cells", DirectOrdering::cells}, {"grid", DirectOrdering::grid}, {"amd", DirectOrdering::amd}},
+      "ldlt's fill-reducing order: cells = nested dissection of the cells each step's system has (the water's, "
+      "not the grid's); grid = nested dissection of the whole grid, fixed for the run; amd = AMD on each step's "
+      "pattern (docs/method.md#linear-solver)");
   w.kind = solver.option<WarmStartKind>(
       "warm_start", w.kind,
       {{"none", WarmStartKind::none}, {"previous", WarmStartKind::previous}, {"extrapolate", WarmStartKind::extrapolate},

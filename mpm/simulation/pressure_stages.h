@@ -211,9 +211,9 @@ void Simulation<dim>::solve_with_interface_constraint() {
   }
   unknown_locations_ = locate_unknowns();
   Eigen::VectorXd rhs = system_.rhs(velocity_star_);
-  // solver.ordering = grid: the order for this step's pattern, which its rounds keep.
+  // solver.ordering = cells or grid: the order for this step's pattern, which its rounds keep.
   const bool direct = linear_solver_kind(options_.pressure_solver, system_.size(), dim) != LinearSolverKind::pcg;
-  if (direct && !cell_rank_.empty() && !system_.has_mass_block()) grid_order_ = grid_order_of_unknowns();
+  if (direct && !cell_ordering_.empty() && !system_.has_mass_block()) grid_order_ = cell_ordering_.order(dual_cell_of_unknowns());
   if (direct) {
     lambda_.setZero(system_.size());  // a direct solve needs no guess
   } else {
@@ -329,13 +329,6 @@ void Simulation<dim>::measure_interface_forces() {
     coupling.segment(layout_.pressure, ops_.pressure_unknowns()) = acting.segment(layout_.pressure, ops_.pressure_unknowns());
   const Eigen::VectorXd nodal = -(system_.constraint().transpose() * coupling);
   particle_force_ = interface_force_on_particles(grid_, solid_, node_momentum_.mass, solid_ops_, nodal);
-}
-
-// solver.ordering = grid: the unknowns by their dual cell's rank in the grid's nested
-// dissection, those of one cell in block order (p_g, p_f, y, h).
-template <int dim>
-std::vector<int> Simulation<dim>::grid_order_of_unknowns() const {
-  return order_by_cell_rank(dual_cell_of_unknowns(), cell_rank_);
 }
 
 // (-1)^(i+j[+k]) of each unknown's dual cell (docs/method.md#linear-solver: the Q1-P0

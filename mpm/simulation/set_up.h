@@ -67,7 +67,9 @@ Simulation<dim>::Simulation(const SceneSpec& scene) : scene_(scene), options_(re
     for (int s = 0; s < 2; ++s) slip_[a][s] = scene.slip_walls[a][s];
   warm_start_ = WarmStart(scene.warm_start, dim, std::vector<int>(grid_.cells.data(), grid_.cells.data() + dim));
   if (options_.pressure_solver.ordering == DirectOrdering::grid)
-    cell_rank_ = nested_dissection_rank<dim>(grid_.dual_cells(), grid_.cells);
+    cell_ordering_ = CellOrdering<dim>::whole_grid(grid_.dual_cells(), grid_.cells);
+  else if (options_.pressure_solver.ordering == DirectOrdering::cells)
+    cell_ordering_ = CellOrdering<dim>::occupied_cells(grid_.dual_cells());
   seed_fluid();
   seed_solids();
 }

@@ -17,6 +17,7 @@
 #include "core/types.h"
 #include "fluid/fluid_operators.h"
 #include "grid/grid.h"
+#include "grid/nested_dissection.h"
 #include "interface/interface_quadrature.h"
 #include "interface/unilateral_contact.h"
 #include "io/state_archive.h"
@@ -172,7 +173,6 @@ class Simulation {
   void solve_pressure_system(const Eigen::VectorXd& rhs);
   UnknownLocations locate_unknowns() const;
   void measure_wall_forces(const Eigen::VectorXd& constraint_force);
-  std::vector<int> grid_order_of_unknowns() const;
   std::vector<signed char> checkerboard_signs_of_unknowns() const;
   void keep_particles_in_domain(Particles<dim>& particles, const char* kind);
 
@@ -186,7 +186,7 @@ class Simulation {
   std::vector<SolidMaterial<dim>> materials_;  // per body
   std::vector<Real> ghost_stiffness_;          // lambda_g per body
   std::vector<std::uint8_t> clamped_node_;     // dense over nodes; empty: no clamp
-  std::vector<int> cell_rank_;                 // solver.ordering = grid: each dual cell's place in the direct solve's order
+  CellOrdering<dim> cell_ordering_;            // solver.ordering: the direct solve's order of the unknowns by their cells
 
   // Particles (all bodies share one solid set; Particles::body says which).
   Particles<dim> fluid_, solid_;
@@ -231,7 +231,7 @@ class Simulation {
   std::vector<WallHold> wall_holds_;
   std::array<std::array<Real, 2>, dim> wall_force_{};
   std::unique_ptr<LinearSolver> pressure_solver_;
-  std::vector<int> grid_order_;    // this step's order for a direct solver (solver.ordering = grid); handed over once
+  std::vector<int> grid_order_;    // this step's order for a direct solver (solver.ordering cells or grid); handed over once
   Eigen::VectorXd lambda_;         // solution: the multipliers (p_g, p_f, y, h), then the mass block's u
   WarmStart warm_start_;
   UnknownLocations unknown_locations_;  // of this step's system

@@ -115,7 +115,7 @@ void Simulation<dim>::correct_fluid_positions() {
   if (has_solids()) {
     last_.correction_unknowns =
         iqmpm::correct_fluid_positions<dim>(grid_, fluid_, solid_, slip_, options_.walls_on_corners, options_.fluid_density,
-                                            options_.position_correction, largest_step, options_.pressure_solver, cell_rank_);
+                                            options_.position_correction, largest_step, options_.pressure_solver, cell_ordering_);
   } else {
     const std::vector<Real> target =
         position_correction_targets(grid_, ops_, ops_.interior, smoothed_particle_volume_per_cell(grid_, fluid_, false), options_.position_correction);

@@ -72,7 +72,7 @@ TYPED_TEST_SUITE(PositionCorrectionAtABodyTest, testing::Dimensions);
 // How the correction's system is solved: the default solver (ldlt in 2-D, PCG in 3-D), or
 // LDL^T (in 2-D and 3-D) in AMD's order or in the grid's nested-dissection order, as the
 // simulation passes it.
-enum class CorrectionSolve { scene_default, ldlt_amd, ldlt_grid_order };
+enum class CorrectionSolve { scene_default, ldlt_amd, ldlt_grid_order, ldlt_cells_order };
 
 // `after` receives the corrected particles.
 template <int dim>
@@ -117,10 +117,12 @@ std::pair<Real, Real> ring_excess(Real scale, CorrectionSolve solve = Correction
   LinearSolverOptions solver;
   solver.tolerance = 1e-10;
   if (solve != CorrectionSolve::scene_default) solver.method = LinearSolverMethod::ldlt;
-  const std::vector<int> rank =
-      solve == CorrectionSolve::ldlt_grid_order ? nested_dissection_rank<dim>(grid.dual_cells(), grid.cells) : std::vector<int>();
+  const CellOrdering<dim> ordering = solve == CorrectionSolve::ldlt_grid_order
+                                         ? CellOrdering<dim>::whole_grid(grid.dual_cells(), grid.cells)
+                                     : solve == CorrectionSolve::ldlt_cells_order ? CellOrdering<dim>::occupied_cells(grid.dual_cells())
+                                                                                  : CellOrdering<dim>();
   correct_fluid_positions<dim>(grid, fluid, sim.solid(), slip, sim.options().walls_on_corners, 1000, 1,
-                               Real(0.5) * dx / sim.scene().particles_per_axis, solver, rank);
+                               Real(0.5) * dx / sim.scene().particles_per_axis, solver, ordering);
   if (after) *after = fluid;
   return {before, excess(fluid)};
 }
@@ -142,19 +144,23 @@ TYPED_TEST(PositionCorrectionAtABodyTest, FillsASparseRingAsItSpreadsACrowdedOne
   EXPECT_LT(std::max(filled / spread, spread / filled), 2.0);
 }
 
-// The correction's direct solve in the grid's order (its wall and solid-face rows placed by
-// their cells): any elimination order solves the same system, so the particles must end
-// where AMD's order puts them, to round-off (1e-9 of a cell; the displacement itself is up to
-// a quarter cell). An order that is not a permutation of the system's unknowns fails here.
-TYPED_TEST(PositionCorrectionAtABodyTest, GridOrderMovesTheParticlesAsAmdOrderDoes) {
+// The correction's direct solve in the grid's order and in the order of a dissection of
+// its own cells (its wall and solid-face rows placed by their cells): any elimination order
+// solves the same system, so the particles must end where AMD's order puts them, to
+// round-off (1e-9 of a cell; the displacement itself is up to a quarter cell). An order that
+// is not a permutation of the system's unknowns fails here.
+TYPED_TEST(PositionCorrectionAtABodyTest, CellOrdersMoveTheParticlesAsAmdOrderDoes) {
   constexpr int dim = TypeParam::value;
-  Particles<dim> amd, grid;
+  Particles<dim> amd;
   ring_excess<dim>(0.8, CorrectionSolve::ldlt_amd, &amd);
-  ring_excess<dim>(0.8, CorrectionSolve::ldlt_grid_order, &grid);
-  ASSERT_EQ(amd.size(), grid.size());
-  Real largest = 0;
-  for (std::size_t p = 0; p < amd.size(); ++p) largest = std::max(largest, (amd.position[p] - grid.position[p]).norm());
-  EXPECT_LT(largest, 1e-9 * (dim == 2 ? 0.05 : 0.1));
+  for (const CorrectionSolve order : {CorrectionSolve::ldlt_grid_order, CorrectionSolve::ldlt_cells_order}) {
+    Particles<dim> ordered;
+    ring_excess<dim>(0.8, order, &ordered);
+    ASSERT_EQ(amd.size(), ordered.size());
+    Real largest = 0;
+    for (std::size_t p = 0; p < amd.size(); ++p) largest = std::max(largest, (amd.position[p] - ordered.position[p]).norm());
+    EXPECT_LT(largest, 1e-9 * (dim == 2 ? 0.05 : 0.1)) << (order == CorrectionSolve::ldlt_grid_order ? "grid" : "cells");
+  }
 }
 
 }  // namespace
