@@ -111,10 +111,6 @@ inline std::vector<int> order_by_cell_rank(const std::vector<int>& cell_of_unkno
   return order;
 }
 
-}  // namespace iqmpm
-
-namespace iqmpm {
-
 // The direct solve's elimination order of a system's unknowns by their dual cells
 // (solver.ordering): the grid's nested dissection, ranked once for the run, or a nested
 // dissection of the cells the system has, each step. Empty: no order (the solver's AMD).
