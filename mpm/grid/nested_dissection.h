@@ -134,20 +134,22 @@ class CellOrdering {
   // cell_of_unknown[u]: the layout index of unknown u's dual cell (every unknown has one).
   std::vector<int> order(const std::vector<int>& cell_of_unknown) const {
     if (kind_ == Kind::grid) return order_by_cell_rank(cell_of_unknown, rank_);
-    rank_.assign(cells_.size(), -1);
+    if (rank_.size() != std::size_t(cells_.size())) rank_.assign(cells_.size(), -1);
     std::vector<int> set;
     for (int c : cell_of_unknown)
       if (rank_[c] < 0) rank_[c] = 0, set.push_back(c);
     const std::vector<int> cell_order = nested_dissection_of_cells<dim>(cells_, set);
     for (std::size_t k = 0; k < cell_order.size(); ++k) rank_[cell_order[k]] = int(k);
-    return order_by_cell_rank(cell_of_unknown, rank_);
+    std::vector<int> order = order_by_cell_rank(cell_of_unknown, rank_);
+    for (int c : set) rank_[c] = -1;  // unmarked again, not the whole grid refilled every step
+    return order;
   }
 
  private:
   enum class Kind { none, grid, cells };
   Kind kind_ = Kind::none;
   GridLayout<dim> cells_;
-  mutable std::vector<int> rank_;  // grid: fixed; cells: this call's ranks (a buffer kept between steps)
+  mutable std::vector<int> rank_;  // grid: fixed; cells: -1 between calls, this call's ranks during one
 };
 
 }  // namespace iqmpm

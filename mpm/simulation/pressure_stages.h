@@ -213,7 +213,7 @@ void Simulation<dim>::solve_with_interface_constraint() {
   Eigen::VectorXd rhs = system_.rhs(velocity_star_);
   // solver.ordering = cells or grid: the order for this step's pattern, which its rounds keep.
   const bool direct = linear_solver_kind(options_.pressure_solver, system_.size(), dim) != LinearSolverKind::pcg;
-  if (direct && !cell_ordering_.empty() && !system_.has_mass_block()) grid_order_ = cell_ordering_.order(dual_cell_of_unknowns());
+  if (direct && !cell_ordering_.empty() && !system_.has_mass_block()) direct_order_ = cell_ordering_.order(dual_cell_of_unknowns());
   if (direct) {
     lambda_.setZero(system_.size());  // a direct solve needs no guess
   } else {
@@ -261,9 +261,9 @@ void Simulation<dim>::solve_pressure_system(const Eigen::VectorXd& rhs) {
   // pattern repeats (the active-set rounds of a step).
   if (!pressure_solver_ || pressure_solver_->kind() != linear_solver_kind(options_.pressure_solver, system_.size(), dim))
     pressure_solver_ = make_linear_solver(options_.pressure_solver, system_.size(), dim);
-  if (!grid_order_.empty()) {
-    pressure_solver_->suggest_order(std::move(grid_order_));
-    grid_order_.clear();
+  if (!direct_order_.empty()) {
+    pressure_solver_->suggest_order(std::move(direct_order_));
+    direct_order_.clear();
   }
   // BoomerAMG on S A S (solver.amg_checkerboard_flip): the signs of this system's unknowns,
   // O(unknowns), against a hierarchy set up on every solve anyway.

@@ -231,7 +231,7 @@ class Simulation {
   std::vector<WallHold> wall_holds_;
   std::array<std::array<Real, 2>, dim> wall_force_{};
   std::unique_ptr<LinearSolver> pressure_solver_;
-  std::vector<int> grid_order_;    // this step's order for a direct solver (solver.ordering cells or grid); handed over once
+  std::vector<int> direct_order_;  // this step's order for a direct solver (solver.ordering cells or grid); handed over once
   Eigen::VectorXd lambda_;         // solution: the multipliers (p_g, p_f, y, h), then the mass block's u
   WarmStart warm_start_;
   UnknownLocations unknown_locations_;  // of this step's system
