@@ -285,22 +285,23 @@ class UpdatableLdlSolver final : public LinearSolver {
     schedule_planned_ = false;
   }
 
-  // A simplicial factor of at least kSubtreeRows unknowns on two threads where the run has
-  // them and its elimination tree splits (linear_solver/subtree_factorisation.h: the same L
-  // bit for bit), else cholmod_factorize.
+  // A simplicial factor of at least kSubtreeRows unknowns by subtrees (linear_solver/
+  // subtree_factorisation.h), on two threads where the run has them and the elimination
+  // tree splits, the same L on one thread; else cholmod_factorize.
   bool factorise(const Sparse& A) {
-    const bool two_threads = omp_get_max_threads() >= 2 && !factor_->is_super && A.rows() >= kSubtreeRows;
+    const bool by_subtrees = !factor_->is_super && A.rows() >= kSubtreeRows;
+    const int threads = std::min(2, omp_get_max_threads());  // before BLAS is held to one
     cholmod_sparse s = view(A);
     const SerialBlasScope serial_blas;
-    if (two_threads) {
+    if (by_subtrees) {
       // S = triu(P A P'), as cholmod_factorize builds it.
       cholmod_sparse* lower = cholmod_ptranspose(&s, 2, static_cast<int*>(factor_->Perm), nullptr, 0, &common_);
       cholmod_sparse* upper = lower ? cholmod_ptranspose(lower, 2, nullptr, nullptr, 0, &common_) : nullptr;
       cholmod_free_sparse(&lower, &common_);
       if (!upper) throw NumericalFailure("CHOLMOD could not permute the pressure system (out of memory?)");
       if (!schedule_planned_) schedule_ = plan_subtree_schedule(upper, factor_, &common_), schedule_planned_ = true;
-      factor_threads_ = schedule_.split() ? 2 : 1;
-      factor_valid_ = factorise_by_subtrees(upper, factor_, schedule_, &common_, &helper_common_);
+      factor_threads_ = schedule_.split() ? threads : 1;
+      factor_valid_ = factorise_by_subtrees(upper, factor_, schedule_, threads, &common_, &helper_common_);
       cholmod_free_sparse(&upper, &common_);
       return factor_valid_;
     }

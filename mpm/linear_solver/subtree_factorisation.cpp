@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <thread>
+#include <utility>
+#include <vector>
 
 namespace iqmpm {
 
@@ -17,18 +20,28 @@ SubtreeSchedule plan_subtree_schedule(cholmod_sparse* S, const cholmod_factor* L
   const int* colcount = static_cast<const int*>(L->ColCount);
   std::vector<double> work(n);  // of the subtree rooted at each node
   std::vector<int> size(n, 1);
-  std::vector<std::vector<int>> children(n);
+  std::vector<int> first_child(n + 1, 0), child(n);  // node j's children, in order: child[first_child[j] ..]
   for (int j = 0; j < n; ++j) work[j] = double(colcount[j]) * colcount[j];
   for (int j = 0; j < n; ++j) {
     if (parent[j] < 0) continue;
     if (parent[j] <= j) return one_thread;  // not postordered: no contiguous subtrees
     work[parent[j]] += work[j], size[parent[j]] += size[j];
-    children[parent[j]].push_back(j);
+    ++first_child[parent[j] + 1];
   }
+  for (int j = 0; j < n; ++j) first_child[j + 1] += first_child[j];
+  {
+    std::vector<int> next = first_child;
+    for (int j = 0; j < n; ++j)
+      if (parent[j] >= 0) child[next[parent[j]]++] = j;
+  }
+  auto children_begin = [&](int j) { return child.begin() + first_child[j]; };
+  auto children_end = [&](int j) { return child.begin() + first_child[j + 1]; };
+  auto has_children = [&](int j) { return first_child[j + 1] > first_child[j]; };
   std::vector<int> frontier;  // the roots of the forest, or the children below the top chain
   for (int j = 0; j < n; ++j)
     if (parent[j] < 0) frontier.push_back(j);
-  while (frontier.size() == 1 && !children[frontier[0]].empty()) frontier = children[frontier[0]];
+  while (frontier.size() == 1 && has_children(frontier[0]))
+    frontier.assign(children_begin(frontier[0]), children_end(frontier[0]));
   std::vector<int> bins[2];
   for (int round = 0; round < 256 && !frontier.empty(); ++round) {
     std::sort(frontier.begin(), frontier.end(), [&](int a, int b) { return work[a] > work[b]; });
@@ -41,22 +54,23 @@ SubtreeSchedule plan_subtree_schedule(cholmod_sparse* S, const cholmod_factor* L
     schedule.bin_work[0] = load[0], schedule.bin_work[1] = load[1];
     if (std::abs(load[0] - load[1]) <= 0.1 * (load[0] + load[1])) break;
     const int heaviest = frontier[0];
-    if (children[heaviest].empty()) break;
+    if (!has_children(heaviest)) break;
     frontier.erase(frontier.begin());
-    frontier.insert(frontier.end(), children[heaviest].begin(), children[heaviest].end());
+    frontier.insert(frontier.end(), children_begin(heaviest), children_end(heaviest));
   }
   if (std::abs(schedule.bin_work[0] - schedule.bin_work[1]) > 0.1 * (schedule.bin_work[0] + schedule.bin_work[1]))
     return one_thread;
-  std::vector<char> in_bin(n, 0);
+  schedule.group.assign(n, SubtreeSchedule::kAfterBins);
   for (int b = 0; b < 2; ++b) {
     std::sort(bins[b].begin(), bins[b].end());
     for (int root : bins[b]) {
       schedule.bins[b].emplace_back(root - size[root] + 1, root + 1);
-      std::fill(in_bin.begin() + (root - size[root] + 1), in_bin.begin() + root + 1, 1);
+      std::fill(schedule.group.begin() + (root - size[root] + 1), schedule.group.begin() + root + 1, std::int8_t(b));
     }
   }
+  schedule.parent = std::move(parent);
   for (int k = 0; k < n; ++k) {
-    if (in_bin[k]) continue;
+    if (schedule.group[k] != SubtreeSchedule::kAfterBins) continue;
     schedule.after_work += double(colcount[k]) * colcount[k];
     if (!schedule.after.empty() && schedule.after.back().second == k) ++schedule.after.back().second;
     else schedule.after.emplace_back(k, k + 1);
@@ -64,7 +78,162 @@ SubtreeSchedule plan_subtree_schedule(cholmod_sparse* S, const cholmod_factor* L
   return schedule;
 }
 
-bool factorise_by_subtrees(cholmod_sparse* S, cholmod_factor* L, const SubtreeSchedule& schedule,
+namespace {
+
+// One thread's dense workspace for row-by-row solves (as CHOLMOD's Xwork, Flag and Iwork).
+struct RowWorkspace {
+  std::vector<double> w;  // the row being solved for, zero outside it
+  std::vector<int> mark;  // of the nodes already on the stack (or touched) for a row
+  std::vector<int> stack, touched;
+  explicit RowWorkspace(int n) : w(n, 0.0), mark(n, -1), stack(n) {}
+};
+
+// What one bin's columns contribute to the rows after the bins, row by row in schedule
+// order: the sums they subtract from the row's entries in the columns after the bins, and
+// from its pivot.
+struct BinContribution {
+  std::vector<int> start{0};  // row r's sums: [start[r], start[r + 1])
+  std::vector<int> column;
+  std::vector<double> sum;
+  std::vector<double> pivot_sum;
+};
+
+// The columns of the simplicial factor L, as rowfac fills them: column j holds D(j) first,
+// then L(k, j) for the rows k computed so far, in order.
+struct Columns {
+  const int* start;
+  const int* next;
+  int* count;
+  int* row;
+  double* value;
+  explicit Columns(cholmod_factor* L)
+      : start(static_cast<const int*>(L->p)), next(static_cast<const int*>(L->next)),
+        count(static_cast<int*>(L->nz)), row(static_cast<int*>(L->i)), value(static_cast<double*>(L->x)) {}
+  // L(k, j) = l; false if column j has no room (not the pattern L was analysed for).
+  bool append(int j, int k, double l) {
+    const int p = start[j] + count[j];
+    if (p >= start[next[j]]) return false;
+    row[p] = k, value[p] = l, ++count[j];
+    return true;
+  }
+};
+
+// Pushes the path from node i up the elimination tree, while `on_path` holds and its nodes
+// are new to this row, onto the stack [top, n), which stays in topological order (rowfac's
+// reach of a row's pattern).
+template <class OnPath>
+void push_path(int i, int row_mark, const std::vector<int>& parent, RowWorkspace& ws, int& top, OnPath on_path) {
+  int length = 0;
+  for (; i >= 0 && on_path(i) && ws.mark[i] != row_mark; i = parent[i]) ws.stack[top - 1 - length++] = i, ws.mark[i] = row_mark;
+  std::reverse(ws.stack.begin() + (top - length), ws.stack.begin() + top);
+  top -= length;
+}
+
+// One step of a row's up-looking solve: y_j = w_j, w -= L(:, j) y_j, pivot_sum += L(k, j)
+// y_j; returns L(k, j) = y_j / D(j). As in rowfac, a zero D(j) leaves column j out (L(k, j)
+// = 0).
+double eliminate(const Columns& L, int j, double* w, double& pivot_sum) {
+  const double y = w[j];
+  w[j] = 0;
+  const int first = L.start[j], end = first + L.count[j];
+  const double d = L.value[first];
+  if (d == 0) return 0;
+  const int* row = L.row;
+  const double* value = L.value;
+  for (int p = first + 1; p < end; ++p) w[row[p]] -= value[p] * y;
+  const double l = y / d;
+  pivot_sum += l * y;
+  return l;
+}
+
+// Bin b's part of the rows after the bins (the bin's rows computed): for each such row k,
+// its entries in the bin's columns and what they subtract from the row's other entries.
+bool bin_part_of_rows_after(cholmod_sparse* S, Columns L, const SubtreeSchedule& schedule, int b, RowWorkspace& ws,
+                            BinContribution& out) {
+  const int n = int(schedule.parent.size());
+  const int* Sp = static_cast<const int*>(S->p);
+  const int* Si = static_cast<const int*>(S->i);
+  const double* Sx = static_cast<const double*>(S->x);
+  auto in_bin = [&](int i) { return schedule.group[i] == b; };
+  for (const auto& [first, end] : schedule.after)
+    for (int k = first; k < end; ++k) {
+      int top = n;
+      for (int p = Sp[k]; p < Sp[k + 1]; ++p) {
+        const int i = Si[p];
+        if (!in_bin(i)) continue;
+        ws.w[i] = Sx[p];
+        push_path(i, k, schedule.parent, ws, top, in_bin);
+      }
+      // The rows after the bins that this row's solve in the bin's columns reaches: the
+      // paths up from the subtrees' roots it reaches (each path's first node is in the
+      // root's column, computed as an earlier row, and the rest in the row's pattern).
+      ws.touched.clear();
+      for (int s = top; s < n; ++s)
+        for (int i = schedule.parent[ws.stack[s]]; i >= 0 && i < k && schedule.group[i] == SubtreeSchedule::kAfterBins &&
+                                                   ws.mark[i] != k;
+             i = schedule.parent[i])
+          ws.mark[i] = k, ws.touched.push_back(i);
+      double pivot_sum = 0;
+      for (int s = top; s < n; ++s) {
+        const int j = ws.stack[s];
+        if (!L.append(j, k, eliminate(L, j, ws.w.data(), pivot_sum))) return false;
+      }
+      for (int r : ws.touched) out.column.push_back(r), out.sum.push_back(ws.w[r]), ws.w[r] = 0;
+      out.start.push_back(int(out.column.size()));
+      out.pivot_sum.push_back(pivot_sum);
+    }
+  return true;
+}
+
+// The rows after the bins, from both bins' contributions: each row's up-looking solve in
+// the columns after the bins, then its pivot D(k). Sets L->minor at a zero pivot.
+bool rows_after_bins(cholmod_sparse* S, cholmod_factor* factor, const SubtreeSchedule& schedule,
+                     const BinContribution (&from)[2], RowWorkspace& ws) {
+  const int n = int(schedule.parent.size());
+  Columns L(factor);
+  const int* Sp = static_cast<const int*>(S->p);
+  const int* Si = static_cast<const int*>(S->i);
+  const double* Sx = static_cast<const double*>(S->x);
+  int r = 0;  // row k's place among the rows after the bins
+  for (const auto& [first, end] : schedule.after)
+    for (int k = first; k < end; ++k, ++r) {
+      const int row_mark = n + k;  // apart from the bins' part's marks (k)
+      auto below_k = [k](int i) { return i < k; };
+      int top = n;
+      for (int p = Sp[k]; p < Sp[k + 1]; ++p) {
+        const int i = Si[p];
+        if (schedule.group[i] != SubtreeSchedule::kAfterBins) continue;
+        ws.w[i] = Sx[p];
+        push_path(i, row_mark, schedule.parent, ws, top, below_k);
+      }
+      double d = ws.w[k];
+      ws.w[k] = 0;
+      for (const BinContribution& bin : from) {
+        d -= bin.pivot_sum[r];
+        for (int e = bin.start[r]; e < bin.start[r + 1]; ++e) {
+          ws.w[bin.column[e]] += bin.sum[e];
+          push_path(bin.column[e], row_mark, schedule.parent, ws, top, below_k);
+        }
+      }
+      double pivot_sum = 0;
+      for (int s = top; s < n; ++s) {
+        const int j = ws.stack[s];
+        if (!L.append(j, k, eliminate(L, j, ws.w.data(), pivot_sum))) return false;
+      }
+      d -= pivot_sum;
+      L.row[L.start[k]] = k;
+      L.value[L.start[k]] = d;
+      if (d == 0) {
+        factor->minor = k;
+        return false;
+      }
+    }
+  return true;
+}
+
+}  // namespace
+
+bool factorise_by_subtrees(cholmod_sparse* S, cholmod_factor* L, const SubtreeSchedule& schedule, int threads,
                            cholmod_common* first, cholmod_common* second) {
   double beta[2] = {0, 0};
   const int n = int(L->n);
@@ -87,14 +256,21 @@ bool factorise_by_subtrees(cholmod_sparse* S, cholmod_factor* L, const SubtreeSc
     for (const auto& [begin, end] : ranges) ok = cholmod_rowfac(S, nullptr, beta, begin, end, L, common) && ok;
     return ok;
   };
-  bool first_ok = true, second_ok = true;
-  if (schedule.split()) {
-    std::thread helper([&] { second_ok = rows(schedule.bins[1], second); });
-    first_ok = rows(schedule.bins[0], first);
+  if (!schedule.split()) return rows(schedule.after, first) && L->minor == std::size_t(n);
+  RowWorkspace workspace[2] = {RowWorkspace(n), RowWorkspace(n)};
+  BinContribution contribution[2];
+  bool ok[2] = {true, true};
+  auto bin = [&](int b, cholmod_common* common) {
+    ok[b] = rows(schedule.bins[b], common) && bin_part_of_rows_after(S, Columns(L), schedule, b, workspace[b], contribution[b]);
+  };
+  if (threads >= 2) {
+    std::thread helper(bin, 1, second);
+    bin(0, first);
     helper.join();
+  } else {
+    bin(0, first), bin(1, first);
   }
-  const bool after_ok = rows(schedule.after, first);
-  return first_ok && second_ok && after_ok && L->minor == std::size_t(n);
+  return ok[0] && ok[1] && L->minor == std::size_t(n) && rows_after_bins(S, L, schedule, contribution, workspace[0]);
 }
 
 }  // namespace iqmpm

@@ -1,16 +1,27 @@
-// CHOLMOD's simplicial LDL^T on two threads (method.md#linear-solver). cholmod_rowfac
-// computes L a row at a time and can compute any range of rows once the rows of their
-// descendants in the elimination tree exist. Subtrees of that tree that do not contain one
-// another are independent, and in CHOLMOD's postordered symbolic factor each is a
-// contiguous range of rows; their rows also write only their own columns of L. So the rows
-// of two groups of such subtrees can be computed at once, each on its own thread with its
-// own cholmod_common (workspace), and the rows above them after both: every row is computed
-// by the same arithmetic as in cholmod_factorize, so L is bit for bit the same.
+// CHOLMOD's simplicial LDL^T by subtrees of the elimination tree, on two threads
+// (method.md#linear-solver). cholmod_rowfac computes L a row at a time and can compute any
+// range of rows once the rows of their descendants in the elimination tree exist. Subtrees
+// that do not contain one another are independent, and in CHOLMOD's postordered symbolic
+// factor each is a contiguous range of rows whose rows write only their own columns of L.
+// So two groups of such subtrees (bins) are computed at once, each on its own thread with
+// its own cholmod_common (workspace).
+//
+// The rows above the bins (the top separators: every bin's ancestors) cannot be left to
+// rowfac: it computes a row's entries in every column below it, the bins' columns included,
+// so those rows would take one thread most of the time. Their entries in a bin's columns
+// depend only on that bin's factor (the up-looking solve of row k in a bin's columns
+// touches only that bin's rows and the rows above), so each thread computes them for its
+// own bin right after the bin, with what they subtract from the entries above; the rows
+// above are then finished on one thread from those sums. This changes the order of the
+// additions against rowfac's, not the arithmetic, so L differs from cholmod_factorize's at
+// round-off; it is the same on one thread (the bins one after the other) as on two, so
+// results do not depend on the thread count.
 #pragma once
 
 #include <cholmod.h>
 
 #include <array>
+#include <cstdint>
 #include <utility>
 #include <vector>
 
@@ -21,6 +32,11 @@ struct SubtreeSchedule {
   std::array<std::vector<std::pair<int, int>>, 2> bins;  // per thread: row ranges [first, end), in order
   std::vector<std::pair<int, int>> after;                // the other rows, in order, after both bins
   double bin_work[2] = {0, 0}, after_work = 0;           // sum of column count^2 of their rows
+  // Where split(): per row of L, its parent in the elimination tree (-1 at a root) and its
+  // group (0 or 1: a bin; kAfterBins).
+  static constexpr std::int8_t kAfterBins = 2;
+  std::vector<int> parent;
+  std::vector<std::int8_t> group;
   bool split() const { return !bins[0].empty() && !bins[1].empty(); }
 };
 
@@ -32,9 +48,10 @@ struct SubtreeSchedule {
 SubtreeSchedule plan_subtree_schedule(cholmod_sparse* S, const cholmod_factor* L, cholmod_common* common);
 
 // L = the LDL^T factor of S by `schedule` (S = triu(P A P'), as cholmod_factorize builds
-// it; L simplicial, symbolic or numeric with room for its column counts). Returns false if
-// CHOLMOD failed or met a zero pivot (L->minor < n).
-bool factorise_by_subtrees(cholmod_sparse* S, cholmod_factor* L, const SubtreeSchedule& schedule,
+// it; L simplicial, symbolic or numeric with room for its column counts), the bins on two
+// threads where `threads` >= 2, else one after the other. Returns false if CHOLMOD failed
+// or met a zero pivot (L->minor < n).
+bool factorise_by_subtrees(cholmod_sparse* S, cholmod_factor* L, const SubtreeSchedule& schedule, int threads,
                            cholmod_common* first, cholmod_common* second);
 
 }  // namespace iqmpm

@@ -1,0 +1,141 @@
+// The simplicial LDL^T by subtrees (linear_solver/subtree_factorisation.h) against
+// cholmod_factorize on a system with the shape of the 2-D pressure solve's: a 9-point
+// stencil on a grid in its nested dissection order, whose top separator's rows come after
+// the two bins and take every bin's updates.
+#include <Eigen/SparseCore>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <random>
+#include <vector>
+
+#include <cholmod.h>
+#include <gtest/gtest.h>
+
+#include "grid/nested_dissection.h"
+#include "linear_solver/subtree_factorisation.h"
+
+namespace iqmpm {
+namespace {
+
+using SparseMatrix = Eigen::SparseMatrix<Real>;
+
+// A random symmetric 9-point stencil on an n x n grid, diagonally dominant; quasi_definite
+// makes the rows of the grid's middle column negative definite (a quasi-definite system,
+// as the bordered one of coupling.solid_response = stiffness: LDL^T without pivoting).
+SparseMatrix stencil(int n, unsigned seed, bool quasi_definite) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<Real> uniform(0.5, 1.5);
+  auto sign = [&](int x) { return quasi_definite && x == n / 2 ? -1.0 : 1.0; };
+  std::vector<Eigen::Triplet<Real>> entries;
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const int i = x + n * y;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int xj = x + dx, yj = y + dy, j = xj + n * yj;
+          if (xj < 0 || yj < 0 || xj >= n || yj >= n || j <= i) continue;
+          const Real value = sign(x) == sign(xj) ? -uniform(rng) * sign(x) : 0.1 * uniform(rng);
+          entries.emplace_back(i, j, value), entries.emplace_back(j, i, value);
+        }
+      entries.emplace_back(i, i, 13 * sign(x));
+    }
+  SparseMatrix A(n * n, n * n);
+  A.setFromTriplets(entries.begin(), entries.end());
+  return A;
+}
+
+struct Cholmod {
+  cholmod_common common[2];
+  Cholmod() {
+    for (cholmod_common& c : common) {
+      cholmod_start(&c);
+      c.nmethods = 1;
+      c.method[0].ordering = CHOLMOD_GIVEN;
+      c.supernodal = CHOLMOD_SIMPLICIAL;
+      c.final_ll = false;
+      c.print = 0;
+    }
+  }
+  ~Cholmod() {
+    for (cholmod_common& c : common) cholmod_finish(&c);
+  }
+};
+
+cholmod_sparse upper_view(SparseMatrix& A) {
+  cholmod_sparse s{};
+  s.nrow = s.ncol = A.rows();
+  s.nzmax = A.nonZeros();
+  s.p = A.outerIndexPtr();
+  s.i = A.innerIndexPtr();
+  s.x = A.valuePtr();
+  s.stype = 1;
+  s.itype = CHOLMOD_INT;
+  s.xtype = CHOLMOD_REAL;
+  s.dtype = CHOLMOD_DOUBLE;
+  s.sorted = s.packed = 1;
+  return s;
+}
+
+TEST(SubtreeFactorisationTest, SameFactorAsCholmodToRoundOffAndTheSameBitsOnOneAndTwoThreads) {
+  const int n = 72;  // 5 184 unknowns
+  const IVec<2> extent(n, n);
+  const std::vector<int> rank = nested_dissection_rank<2>(GridLayout<2>(IVec<2>::Zero(), extent), extent);
+  std::vector<int> order(n * n);
+  for (int cell = 0; cell < n * n; ++cell) order[rank[cell]] = cell;
+  for (const bool quasi_definite : {false, true}) {
+    SCOPED_TRACE(quasi_definite ? "quasi-definite" : "positive definite");
+    SparseMatrix A = stencil(n, 5, quasi_definite);
+    Cholmod cholmod;
+    cholmod_common* common = &cholmod.common[0];
+    cholmod_sparse view = upper_view(A);
+    cholmod_factor* reference = cholmod_analyze_p(&view, order.data(), nullptr, 0, common);
+    ASSERT_NE(reference, nullptr);
+    ASSERT_TRUE(cholmod_factorize(&view, reference, common));
+    ASSERT_EQ(reference->minor, reference->n);
+    cholmod_sparse* lower = cholmod_ptranspose(&view, 2, static_cast<int*>(reference->Perm), nullptr, 0, common);
+    cholmod_sparse* S = cholmod_ptranspose(lower, 2, nullptr, nullptr, 0, common);
+    const SubtreeSchedule schedule = plan_subtree_schedule(S, reference, common);
+    ASSERT_TRUE(schedule.split());
+    ASSERT_FALSE(schedule.after.empty());
+
+    std::vector<double> values[2];
+    for (int threads : {1, 2}) {
+      cholmod_factor* L = cholmod_analyze_p(&view, order.data(), nullptr, 0, common);
+      ASSERT_TRUE(factorise_by_subtrees(S, L, schedule, threads, &cholmod.common[0], &cholmod.common[1]));
+      // The same pattern as cholmod_factorize's; the values to round-off of each column's size.
+      const int* Lp = static_cast<const int*>(L->p);
+      const int* Lnz = static_cast<const int*>(L->nz);
+      const int* Li = static_cast<const int*>(L->i);
+      const double* Lx = static_cast<const double*>(L->x);
+      const int* Rp = static_cast<const int*>(reference->p);
+      const int* Rnz = static_cast<const int*>(reference->nz);
+      const int* Ri = static_cast<const int*>(reference->i);
+      const double* Rx = static_cast<const double*>(reference->x);
+      double largest_difference = 0;
+      int negative_pivots = 0;
+      for (int j = 0; j < n * n; ++j) {
+        ASSERT_EQ(Lnz[j], Rnz[j]) << "column " << j;
+        double size = 0;
+        for (int q = 0; q < Rnz[j]; ++q) size = std::max(size, std::abs(Rx[Rp[j] + q]));
+        for (int q = 0; q < Lnz[j]; ++q) {
+          ASSERT_EQ(Li[Lp[j] + q], Ri[Rp[j] + q]) << "column " << j;
+          largest_difference = std::max(largest_difference, std::abs(Lx[Lp[j] + q] - Rx[Rp[j] + q]) / size);
+          values[threads - 1].push_back(Lx[Lp[j] + q]);
+        }
+        negative_pivots += Lx[Lp[j]] < 0;
+      }
+      EXPECT_LT(largest_difference, 1e-13);
+      EXPECT_EQ(negative_pivots, quasi_definite ? n : 0);
+      cholmod_free_factor(&L, common);
+    }
+    EXPECT_TRUE(values[0] == values[1]);
+    cholmod_free_sparse(&lower, common);
+    cholmod_free_sparse(&S, common);
+    cholmod_free_factor(&reference, common);
+  }
+}
+
+}  // namespace
+}  // namespace iqmpm
