@@ -130,8 +130,12 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
 
   // A cell is interior when no neighbour (3^dim block) is an empty cell inside the
   // domain: it is then full of fluid and the exact one-point rule applies (method.md §4).
+  // The loops over rows and corners below run on the threads where each iteration writes
+  // only its own entry (the same arithmetic as in one loop); chunks are handed out as
+  // threads come free, so a busy core does not hold the others (issue 21 item 4).
   const int np = ops.pressure_unknowns();
   ops.interior.assign(np, 0);
+#pragma omp parallel for schedule(dynamic, 1024)
   for (int row = 0; row < np; ++row)
     ops.interior[row] = is_interior_cell<dim>(cells, cells.multi_index(ops.cell_of_pressure[row]),
                                               [&](int k) { return points_in(k) > 0; });
@@ -168,6 +172,7 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
            !any_neighbour_cell<dim>(cells, cells.multi_index(k), [&](int j) { return points_in(j) > 0; });
   };
   std::vector<char> at_centre(np, 0);
+#pragma omp parallel for schedule(dynamic, 1024)
   for (int row = 0; row < np; ++row)
     at_centre[row] = ops.interior[row] || (surface_cells_at_centre && !lone_drop(ops.cell_of_pressure[row]));
   for (int row = 0; row < np; ++row) {
@@ -190,7 +195,8 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
     }
   }
   Real largest_mass = 0;
-  for (Real m : corner_mass) largest_mass = std::max(largest_mass, m);
+#pragma omp parallel for schedule(static) reduction(max : largest_mass)
+  for (int k = 0; k < corners.size(); ++k) largest_mass = std::max(largest_mass, corner_mass[k]);
   ops.dof_of_corner.assign(corners.size(), -1);
   // With interface quadrature (real_fluid_bins given), a corner is a fluid unknown only when
   // one of its cells holds a real fluid particle: corners reached only by fluid borrowed at
@@ -209,8 +215,12 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
     });
     return found;
   };
+  std::vector<char> is_unknown(corners.size(), 0);
+#pragma omp parallel for schedule(dynamic, 4096)
   for (int k = 0; k < corners.size(); ++k)
-    if (corner_mass[k] > 1e-12 * largest_mass && corner_momentum.mass[k] > 0 && touches_real_fluid(k)) {
+    is_unknown[k] = corner_mass[k] > 1e-12 * largest_mass && corner_momentum.mass[k] > 0 && touches_real_fluid(k);
+  for (int k = 0; k < corners.size(); ++k)
+    if (is_unknown[k]) {
       ops.dof_of_corner[k] = int(ops.corner_of_dof.size());
       ops.corner_of_dof.push_back(k);
     }
@@ -229,12 +239,14 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
     }
   }
 
-  // G^fT rows: -(sum over quadrature of V grad N1_c) for the corners c of the cell.
-  ops.gradient_transpose.reserve(std::size_t(np) * (1 << dim) * dim);
+  // G^fT rows: -(sum over quadrature of V grad N1_c) for the corners c of the cell; the
+  // integrals on the threads, the rows in order after.
+  std::vector<Eigen::Matrix<Real, dim, (1 << dim)>> integrals(np);
+#pragma omp parallel for schedule(dynamic, 256)
   for (int row = 0; row < np; ++row) {
-    const int cell_index = ops.cell_of_pressure[row];
-    const IVec<dim> cell = cells.multi_index(cell_index);
-    Eigen::Matrix<Real, dim, (1 << dim)> integral = Eigen::Matrix<Real, dim, (1 << dim)>::Zero();
+    const IVec<dim> cell = cells.multi_index(ops.cell_of_pressure[row]);
+    Eigen::Matrix<Real, dim, (1 << dim)>& integral = integrals[row];
+    integral.setZero();
     auto accumulate = [&](const Vec<dim>& x, Real volume) {
       const auto stencil = linear_stencil<dim>(grid.to_cells(x), grid.dx);
       int corner = 0;
@@ -245,8 +257,13 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
     } else if (at_centre[row]) {
       accumulate(grid.dual_cell_centre(cell), cell_fluid_volume(row));
     } else {
-      for_each_volume_point(cell_index, accumulate);
+      for_each_volume_point(ops.cell_of_pressure[row], accumulate);
     }
+  }
+  ops.gradient_transpose.reserve(std::size_t(np) * (1 << dim) * dim);
+  for (int row = 0; row < np; ++row) {
+    const IVec<dim> cell = cells.multi_index(ops.cell_of_pressure[row]);
+    const Eigen::Matrix<Real, dim, (1 << dim)>& integral = integrals[row];
     int corner = 0;
     for_each_offset<dim, 2>([&](const IVec<dim>& offset) {
       const int k = corners.index(cell + offset);

@@ -328,6 +328,7 @@ class UpdatableLdlSolver final : public LinearSolver {
     const int* column_start = static_cast<const int*>(factor_->p);
     const Real* values = static_cast<const Real*>(factor_->x);
     int count = 0;
+#pragma omp parallel for schedule(dynamic, 4096) reduction(+ : count)
     for (int k = 0; k < int(factor_->n); ++k) {
       Real scale = 0;
       for (Sparse::InnerIterator it(A, perm[k]); it; ++it) scale = std::max(scale, std::abs(it.value()));
