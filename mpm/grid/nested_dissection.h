@@ -10,7 +10,10 @@
 // follows the water instead of the grid.
 #pragma once
 
+#include <omp.h>
+
 #include <algorithm>
+#include <cstddef>
 #include <utility>
 #include <vector>
 
@@ -73,9 +76,10 @@ std::vector<int> nested_dissection_of_cells(const GridLayout<dim>& cells, const 
   };
   std::vector<Cell> part(set.size());
   for (std::size_t k = 0; k < set.size(); ++k) part[k] = {cells.multi_index(set[k]), set[k]};
-  std::vector<int> order;
-  order.reserve(set.size());
-  auto dissect = [&](auto&& self, Cell* begin, Cell* end) -> void {
+  // The two sides of the first large part are dissected at once on two threads (each into
+  // its own order, joined in the same sequence: the order does not depend on the threads).
+  constexpr std::ptrdiff_t kCellsForTwoThreads = 8192;
+  auto dissect = [&](auto&& self, Cell* begin, Cell* end, std::vector<int>& order) -> void {
     if (end == begin) return;
     IVec<dim> lo = begin->at, hi = lo;
     for (const Cell* c = begin + 1; c != end; ++c) lo = lo.cwiseMin(c->at), hi = hi.cwiseMax(c->at);
@@ -91,11 +95,25 @@ std::vector<int> nested_dissection_of_cells(const GridLayout<dim>& cells, const 
     const int middle = (lo[axis] + hi[axis]) / 2;
     Cell* left_end = std::partition(begin, end, [&](const Cell& c) { return c.at[axis] < middle; });
     Cell* right_end = std::partition(left_end, end, [&](const Cell& c) { return c.at[axis] > middle; });
-    self(self, begin, left_end);
-    self(self, left_end, right_end);
-    self(self, right_end, end);  // the separator, itself dissected along its own longest axis
+    if (end - begin >= kCellsForTwoThreads && omp_get_max_threads() >= 2 && !omp_in_parallel()) {
+      std::vector<int> right;
+#pragma omp parallel sections num_threads(2)
+      {
+#pragma omp section
+        self(self, begin, left_end, order);
+#pragma omp section
+        self(self, left_end, right_end, right);
+      }
+      order.insert(order.end(), right.begin(), right.end());
+    } else {
+      self(self, begin, left_end, order);
+      self(self, left_end, right_end, order);
+    }
+    self(self, right_end, end, order);  // the separator, itself dissected along its own longest axis
   };
-  dissect(dissect, part.data(), part.data() + part.size());
+  std::vector<int> order;
+  order.reserve(set.size());
+  dissect(dissect, part.data(), part.data() + part.size(), order);
   return order;
 }
 
