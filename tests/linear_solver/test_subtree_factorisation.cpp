@@ -2,6 +2,7 @@
 // cholmod_factorize on a system with the shape of the 2-D pressure solve's: a 9-point
 // stencil on a grid in its nested dissection order, whose top separator's rows come after
 // the two bins and take every bin's updates.
+#include <Eigen/CholmodSupport>
 #include <Eigen/SparseCore>
 
 #include <algorithm>
@@ -63,21 +64,6 @@ struct Cholmod {
   }
 };
 
-cholmod_sparse upper_view(SparseMatrix& A) {
-  cholmod_sparse s{};
-  s.nrow = s.ncol = A.rows();
-  s.nzmax = A.nonZeros();
-  s.p = A.outerIndexPtr();
-  s.i = A.innerIndexPtr();
-  s.x = A.valuePtr();
-  s.stype = 1;
-  s.itype = CHOLMOD_INT;
-  s.xtype = CHOLMOD_REAL;
-  s.dtype = CHOLMOD_DOUBLE;
-  s.sorted = s.packed = 1;
-  return s;
-}
-
 TEST(SubtreeFactorisationTest, SameFactorAsCholmodToRoundOffAndTheSameBitsOnOneAndTwoThreads) {
   const int n = 72;  // 5 184 unknowns
   const IVec<2> extent(n, n);
@@ -86,10 +72,10 @@ TEST(SubtreeFactorisationTest, SameFactorAsCholmodToRoundOffAndTheSameBitsOnOneA
   for (int cell = 0; cell < n * n; ++cell) order[rank[cell]] = cell;
   for (const bool quasi_definite : {false, true}) {
     SCOPED_TRACE(quasi_definite ? "quasi-definite" : "positive definite");
-    SparseMatrix A = stencil(n, 5, quasi_definite);
+    const SparseMatrix A = stencil(n, 5, quasi_definite);
     Cholmod cholmod;
     cholmod_common* common = &cholmod.common[0];
-    cholmod_sparse view = upper_view(A);
+    cholmod_sparse view = Eigen::viewAsCholmod(A.selfadjointView<Eigen::Upper>());
     cholmod_factor* reference = cholmod_analyze_p(&view, order.data(), nullptr, 0, common);
     ASSERT_NE(reference, nullptr);
     ASSERT_TRUE(cholmod_factorize(&view, reference, common));
