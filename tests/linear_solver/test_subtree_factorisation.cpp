@@ -123,5 +123,42 @@ TEST(SubtreeFactorisationTest, SameFactorAsCholmodToRoundOffAndTheSameBitsOnOneA
   }
 }
 
+// Two one-node bins below one row: [[2, 0, 1], [0, 2, 1], [1, 1, d]]. The row above the bins
+// takes 1/2 from each bin, so its pivot is d - 1 exactly: d = 1 is singular and must be
+// reported at that row (L->minor = 2), as cholmod_factorize reports it; d = 2 gives D = 1.
+TEST(SubtreeFactorisationTest, APivotOfTheRowsAboveTheBinsIsExactAndAZeroOneIsReported) {
+  for (const double d : {1.0, 2.0}) {
+    SCOPED_TRACE(d);
+    std::vector<Eigen::Triplet<Real>> entries = {{0, 0, 2}, {1, 1, 2}, {0, 2, 1}, {2, 0, 1}, {1, 2, 1}, {2, 1, 1}, {2, 2, d}};
+    SparseMatrix A(3, 3);
+    A.setFromTriplets(entries.begin(), entries.end());
+    Cholmod cholmod;
+    cholmod_common* common = &cholmod.common[0];
+    cholmod_sparse view = Eigen::viewAsCholmod(static_cast<const SparseMatrix&>(A).selfadjointView<Eigen::Upper>());
+    const std::vector<int> natural = {0, 1, 2};
+    for (int threads : {1, 2}) {
+      cholmod_factor* L = cholmod_analyze_p(&view, const_cast<int*>(natural.data()), nullptr, 0, common);
+      ASSERT_NE(L, nullptr);
+      cholmod_sparse* lower = cholmod_ptranspose(&view, 2, static_cast<int*>(L->Perm), nullptr, 0, common);
+      cholmod_sparse* S = cholmod_ptranspose(lower, 2, nullptr, nullptr, 0, common);
+      const SubtreeSchedule schedule = plan_subtree_schedule(S, L, common);
+      ASSERT_TRUE(schedule.split());
+      ASSERT_EQ(schedule.after.size(), 1u);
+      EXPECT_EQ(factorise_by_subtrees(S, L, schedule, threads, &cholmod.common[0], &cholmod.common[1]), d != 1);
+      const int* Lp = static_cast<const int*>(L->p);
+      const double* Lx = static_cast<const double*>(L->x);
+      if (d == 1) {
+        EXPECT_EQ(L->minor, 2u);
+      } else {
+        EXPECT_EQ(L->minor, 3u);
+        EXPECT_EQ(Lx[Lp[2]], 1.0);
+      }
+      cholmod_free_sparse(&lower, common);
+      cholmod_free_sparse(&S, common);
+      cholmod_free_factor(&L, common);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace iqmpm
