@@ -7,6 +7,8 @@
 #include <utility>
 #include <vector>
 
+#include "core/buckets.h"
+
 namespace iqmpm {
 
 SubtreeSchedule plan_subtree_schedule(cholmod_sparse* S, const cholmod_factor* L, cholmod_common* common) {
@@ -20,23 +22,16 @@ SubtreeSchedule plan_subtree_schedule(cholmod_sparse* S, const cholmod_factor* L
   const int* colcount = static_cast<const int*>(L->ColCount);
   std::vector<double> work(n);  // of the subtree rooted at each node
   std::vector<int> size(n, 1);
-  std::vector<int> first_child(n + 1, 0), child(n);  // node j's children, in order: child[first_child[j] ..]
   for (int j = 0; j < n; ++j) work[j] = double(colcount[j]) * colcount[j];
   for (int j = 0; j < n; ++j) {
     if (parent[j] < 0) continue;
     if (parent[j] <= j) return one_thread;  // not postordered: no contiguous subtrees
     work[parent[j]] += work[j], size[parent[j]] += size[j];
-    ++first_child[parent[j] + 1];
   }
-  for (int j = 0; j < n; ++j) first_child[j + 1] += first_child[j];
-  {
-    std::vector<int> next = first_child;
-    for (int j = 0; j < n; ++j)
-      if (parent[j] >= 0) child[next[parent[j]]++] = j;
-  }
-  auto children_begin = [&](int j) { return child.begin() + first_child[j]; };
-  auto children_end = [&](int j) { return child.begin() + first_child[j + 1]; };
-  auto has_children = [&](int j) { return first_child[j + 1] > first_child[j]; };
+  const Buckets children = bucket_by_key(parent, n);  // node j's children, in order
+  auto children_begin = [&](int j) { return children.items.begin() + children.start[j]; };
+  auto children_end = [&](int j) { return children.items.begin() + children.start[j + 1]; };
+  auto has_children = [&](int j) { return children.start[j + 1] > children.start[j]; };
   std::vector<int> frontier;  // the roots of the forest, or the children below the top chain
   for (int j = 0; j < n; ++j)
     if (parent[j] < 0) frontier.push_back(j);

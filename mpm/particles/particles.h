@@ -1,9 +1,9 @@
 // Material points stored as one array per attribute (structure of arrays).
 #pragma once
 
-#include <numeric>
 #include <vector>
 
+#include "core/buckets.h"
 #include "core/types.h"
 #include "grid/grid.h"
 #include "grid/kernels.h"
@@ -108,15 +108,11 @@ ParticleBins<dim> sort_particles_by_cell(const Grid<dim>& grid, Particles<dim>& 
   const int cells = bins.layout.size();
   const int n = int(particles.size());
   std::vector<int> cell_of(n);
-  bins.cell_start.assign(cells + 1, 0);
 #pragma omp parallel for schedule(static)
   for (int p = 0; p < n; ++p) cell_of[p] = bins.layout.index(dual_cell_of<dim>(grid.to_cells(particles.position[p])));
-  for (int p = 0; p < n; ++p) ++bins.cell_start[cell_of[p] + 1];
-  std::partial_sum(bins.cell_start.begin(), bins.cell_start.end(), bins.cell_start.begin());
-  std::vector<int> next(bins.cell_start.begin(), bins.cell_start.end() - 1);
-  std::vector<int> order(n);
-  for (int p = 0; p < n; ++p) order[next[cell_of[p]]++] = p;
-  particles.permute(order, unsorted);
+  Buckets by_cell = bucket_by_key(cell_of, cells);
+  bins.cell_start = std::move(by_cell.start);
+  particles.permute(by_cell.items, unsorted);
   return bins;
 }
 
