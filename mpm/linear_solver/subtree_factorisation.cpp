@@ -11,6 +11,10 @@
 
 namespace iqmpm {
 
+// The largest share of the bins' work the heavier bin may take (the bins then take at most
+// 3/4 of their one-thread time); beyond it the factorisation runs on one thread.
+constexpr double kHeaviestBinShare = 0.75;
+
 SubtreeSchedule plan_subtree_schedule(cholmod_sparse* S, const cholmod_factor* L, cholmod_common* common) {
   const int n = int(L->n);
   SubtreeSchedule one_thread;
@@ -37,24 +41,36 @@ SubtreeSchedule plan_subtree_schedule(cholmod_sparse* S, const cholmod_factor* L
     if (parent[j] < 0) frontier.push_back(j);
   while (frontier.size() == 1 && has_children(frontier[0]))
     frontier.assign(children_begin(frontier[0]), children_end(frontier[0]));
+  // Largest first into the lighter bin; the split whose heavier bin is lightest is kept.
   std::vector<int> bins[2];
-  for (int round = 0; round < 256 && !frontier.empty(); ++round) {
+  double best_heavier = 0;  // one bin with every subtree: no split
+  for (int root : frontier) best_heavier += work[root];
+  auto fill_bins = [&] {
     std::sort(frontier.begin(), frontier.end(), [&](int a, int b) { return work[a] > work[b]; });
     double load[2] = {0, 0};
-    bins[0].clear(), bins[1].clear();
+    std::vector<int> filled[2];
     for (int root : frontier) {
       const int b = load[0] <= load[1] ? 0 : 1;
-      bins[b].push_back(root), load[b] += work[root];
+      filled[b].push_back(root), load[b] += work[root];
     }
-    schedule.bin_work[0] = load[0], schedule.bin_work[1] = load[1];
-    if (std::abs(load[0] - load[1]) <= 0.1 * (load[0] + load[1])) break;
-    const int heaviest = frontier[0];
+    if (std::max(load[0], load[1]) < best_heavier) {
+      best_heavier = std::max(load[0], load[1]);
+      bins[0] = std::move(filled[0]), bins[1] = std::move(filled[1]);
+      schedule.bin_work[0] = load[0], schedule.bin_work[1] = load[1];
+    }
+    return std::abs(load[0] - load[1]) <= 0.1 * (load[0] + load[1]);
+  };
+  for (int round = 0; round < 256 && !frontier.empty() && !fill_bins(); ++round) {
+    // The heaviest subtree gives way to its children, below its chain of single children
+    // (a separator's rows, one after another), so that a round is a branching.
+    int heaviest = frontier[0];
+    while (children_end(heaviest) - children_begin(heaviest) == 1) heaviest = *children_begin(heaviest);
     if (!has_children(heaviest)) break;
     frontier.erase(frontier.begin());
     frontier.insert(frontier.end(), children_begin(heaviest), children_end(heaviest));
   }
-  if (std::abs(schedule.bin_work[0] - schedule.bin_work[1]) > 0.1 * (schedule.bin_work[0] + schedule.bin_work[1]))
-    return one_thread;
+  const double bins_total = schedule.bin_work[0] + schedule.bin_work[1];
+  if (bins[0].empty() || bins[1].empty() || best_heavier > kHeaviestBinShare * bins_total) return one_thread;
   schedule.group.assign(n, SubtreeSchedule::kAfterBins);
   for (int b = 0; b < 2; ++b) {
     std::sort(bins[b].begin(), bins[b].end());

@@ -42,9 +42,11 @@ struct SubtreeSchedule {
 
 // The schedule for the symbolic simplicial factor L (postordered) of S = triu(P A P'):
 // starting from the children of the root (below the chain of single-child nodes at the
-// top), the heaviest subtree is replaced by its children until two bins, filled largest
-// first, differ by at most 10 % of their total. Where no such split exists, every row
-// comes after (one thread, as cholmod_factorize).
+// top), the heaviest subtree is replaced by the children below its own chain of single
+// children (a separator's rows, which join the rows after) until two bins, filled largest
+// first, differ by at most 10 % of their total. If no split gets there, the one whose
+// heavier bin is lightest is taken if that bin has at most 3/4 of the two bins' work; else
+// every row comes after (one thread, as cholmod_factorize).
 SubtreeSchedule plan_subtree_schedule(cholmod_sparse* S, const cholmod_factor* L, cholmod_common* common);
 
 // L = the LDL^T factor of S by `schedule` (S = triu(P A P'), as cholmod_factorize builds

@@ -123,6 +123,77 @@ TEST(SubtreeFactorisationTest, SameFactorAsCholmodToRoundOffAndTheSameBitsOnOneA
   }
 }
 
+// An L-shaped region (a 240 x 240 grid without its top-right 120 x 120 quadrant, 43 200
+// unknowns as the dam break's at a/128), dissected as the solver dissects the water's
+// cells: the top separator splits it into a 120 x 240 part and a 120 x 120 part, two thirds
+// of the cells against one third, and every part below hangs from a chain of separator
+// rows. The plan must reach below those chains to balance the bins (the first plan spent
+// one of its 256 rounds on each row of a chain and left this system to one thread), and
+// the factor must be the same as on one thread and as CHOLMOD's.
+TEST(SubtreeFactorisationTest, AnUnevenTreeIsSplitBelowItsSeparatorChains) {
+  const int n = 240;
+  const SparseMatrix grid_matrix = stencil(n, 7, false);
+  const GridLayout<2> layout(IVec<2>::Zero(), IVec<2>(n, n));
+  std::vector<int> region;
+  for (int cell = 0; cell < n * n; ++cell) {
+    const IVec<2> at = layout.multi_index(cell);
+    if (at.x() < n / 2 || at.y() < n / 2) region.push_back(cell);
+  }
+  const int m = int(region.size());
+  std::vector<Eigen::Triplet<Real>> selection;
+  for (int k = 0; k < m; ++k) selection.emplace_back(k, region[k], 1.0);
+  SparseMatrix select(m, n * n);
+  select.setFromTriplets(selection.begin(), selection.end());
+  const SparseMatrix A = select * grid_matrix * select.transpose();
+  std::vector<int> row_of_cell(n * n, -1);
+  for (int k = 0; k < m; ++k) row_of_cell[region[k]] = k;
+  std::vector<int> order;
+  for (int cell : nested_dissection_of_cells(layout, region)) order.push_back(row_of_cell[cell]);
+
+  Cholmod cholmod;
+  cholmod_common* common = &cholmod.common[0];
+  cholmod_sparse view = Eigen::viewAsCholmod(A.selfadjointView<Eigen::Upper>());
+  cholmod_factor* reference = cholmod_analyze_p(&view, order.data(), nullptr, 0, common);
+  ASSERT_NE(reference, nullptr);
+  ASSERT_TRUE(cholmod_factorize(&view, reference, common));
+  cholmod_sparse* lower = cholmod_ptranspose(&view, 2, static_cast<int*>(reference->Perm), nullptr, 0, common);
+  cholmod_sparse* S = cholmod_ptranspose(lower, 2, nullptr, nullptr, 0, common);
+  const SubtreeSchedule schedule = plan_subtree_schedule(S, reference, common);
+  ASSERT_TRUE(schedule.split());
+  // The rows after the bins are one thread's; the bins and they together take at most 70 %
+  // of the one-thread work (the old plan: all of it).
+  const double bins_total = schedule.bin_work[0] + schedule.bin_work[1];
+  EXPECT_LE(std::abs(schedule.bin_work[0] - schedule.bin_work[1]), 0.1 * bins_total);
+  EXPECT_LT(std::max(schedule.bin_work[0], schedule.bin_work[1]) + schedule.after_work,
+            0.7 * (bins_total + schedule.after_work));
+
+  std::vector<double> values[2];
+  for (int threads : {1, 2}) {
+    cholmod_factor* L = cholmod_analyze_p(&view, order.data(), nullptr, 0, common);
+    ASSERT_TRUE(factorise_by_subtrees(S, L, schedule, threads, &cholmod.common[0], &cholmod.common[1]));
+    const int* Lp = static_cast<const int*>(L->p);
+    const int* Lnz = static_cast<const int*>(L->nz);
+    const double* Lx = static_cast<const double*>(L->x);
+    const int* Rp = static_cast<const int*>(reference->p);
+    const double* Rx = static_cast<const double*>(reference->x);
+    double largest_difference = 0;
+    for (int j = 0; j < m; ++j) {
+      double size = 0;
+      for (int q = 0; q < Lnz[j]; ++q) size = std::max(size, std::abs(Rx[Rp[j] + q]));
+      for (int q = 0; q < Lnz[j]; ++q) {
+        largest_difference = std::max(largest_difference, std::abs(Lx[Lp[j] + q] - Rx[Rp[j] + q]) / size);
+        values[threads - 1].push_back(Lx[Lp[j] + q]);
+      }
+    }
+    EXPECT_LT(largest_difference, 1e-13);
+    cholmod_free_factor(&L, common);
+  }
+  EXPECT_TRUE(values[0] == values[1]);
+  cholmod_free_sparse(&lower, common);
+  cholmod_free_sparse(&S, common);
+  cholmod_free_factor(&reference, common);
+}
+
 // Two one-node bins below one row: [[2, 0, 1], [0, 2, 1], [1, 1, d]]. The row above the bins
 // takes 1/2 from each bin, so its pivot is d - 1 exactly: d = 1 is singular and must be
 // reported at that row (L->minor = 2), as cholmod_factorize reports it; d = 2 gives D = 1.
