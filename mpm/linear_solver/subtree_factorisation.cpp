@@ -11,9 +11,9 @@
 
 namespace iqmpm {
 
-// The largest share of the bins' work the heavier bin may take (the bins then take at most
-// 3/4 of their one-thread time); beyond it the factorisation runs on one thread.
-constexpr double kHeaviestBinShare = 0.75;
+// A split is taken where its predicted time is at most this share of one thread's; else
+// the factorisation runs on one thread.
+constexpr double kLeastGain = 0.8;
 
 SubtreeSchedule plan_subtree_schedule(cholmod_sparse* S, const cholmod_factor* L, cholmod_common* common) {
   const int n = int(L->n);
@@ -41,11 +41,15 @@ SubtreeSchedule plan_subtree_schedule(cholmod_sparse* S, const cholmod_factor* L
     if (parent[j] < 0) frontier.push_back(j);
   while (frontier.size() == 1 && has_children(frontier[0]))
     frontier.assign(children_begin(frontier[0]), children_end(frontier[0]));
-  // Largest first into the lighter bin; the split whose heavier bin is lightest is kept.
+  // Each split: the frontier's subtrees largest first into the lighter bin, the rest of the
+  // rows after the bins. The one with the least predicted time is kept: the heavier bin
+  // plus the rows after (one thread's), in column count^2.
+  double total = 0;  // the one-thread time
+  for (int j = 0; j < n; ++j)
+    if (parent[j] < 0) total += work[j];
   std::vector<int> bins[2];
-  double best_heavier = 0;  // one bin with every subtree: no split
-  for (int root : frontier) best_heavier += work[root];
-  auto fill_bins = [&] {
+  double best_time = total;
+  for (int round = 0; round < 256 && !frontier.empty(); ++round) {
     std::sort(frontier.begin(), frontier.end(), [&](int a, int b) { return work[a] > work[b]; });
     double load[2] = {0, 0};
     std::vector<int> filled[2];
@@ -53,14 +57,15 @@ SubtreeSchedule plan_subtree_schedule(cholmod_sparse* S, const cholmod_factor* L
       const int b = load[0] <= load[1] ? 0 : 1;
       filled[b].push_back(root), load[b] += work[root];
     }
-    if (std::max(load[0], load[1]) < best_heavier) {
-      best_heavier = std::max(load[0], load[1]);
+    const double after = total - load[0] - load[1];
+    if (std::max(load[0], load[1]) + after < best_time) {
+      best_time = std::max(load[0], load[1]) + after;
       bins[0] = std::move(filled[0]), bins[1] = std::move(filled[1]);
       schedule.bin_work[0] = load[0], schedule.bin_work[1] = load[1];
     }
-    return std::abs(load[0] - load[1]) <= 0.1 * (load[0] + load[1]);
-  };
-  for (int round = 0; round < 256 && !frontier.empty() && !fill_bins(); ++round) {
+    // Rows only join the rows after, so no later split takes less than half the bins' rows
+    // plus all of these: (total - after) / 2 + after.
+    if (best_time <= (total + after) / 2) break;
     // The heaviest subtree gives way to its children, below its chain of single children
     // (a separator's rows, one after another), so that a round is a branching.
     int heaviest = frontier[0];
@@ -69,8 +74,7 @@ SubtreeSchedule plan_subtree_schedule(cholmod_sparse* S, const cholmod_factor* L
     frontier.erase(frontier.begin());
     frontier.insert(frontier.end(), children_begin(heaviest), children_end(heaviest));
   }
-  const double bins_total = schedule.bin_work[0] + schedule.bin_work[1];
-  if (bins[0].empty() || bins[1].empty() || best_heavier > kHeaviestBinShare * bins_total) return one_thread;
+  if (bins[0].empty() || bins[1].empty() || best_time > kLeastGain * total) return one_thread;
   schedule.group.assign(n, SubtreeSchedule::kAfterBins);
   for (int b = 0; b < 2; ++b) {
     std::sort(bins[b].begin(), bins[b].end());

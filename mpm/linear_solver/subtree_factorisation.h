@@ -42,11 +42,12 @@ struct SubtreeSchedule {
 
 // The schedule for the symbolic simplicial factor L (postordered) of S = triu(P A P'):
 // starting from the children of the root (below the chain of single-child nodes at the
-// top), the heaviest subtree is replaced by the children below its own chain of single
-// children (a separator's rows, which join the rows after) until two bins, filled largest
-// first, differ by at most 10 % of their total. If no split gets there, the one whose
-// heavier bin is lightest is taken if that bin has at most 3/4 of the two bins' work; else
-// every row comes after (one thread, as cholmod_factorize).
+// top), the heaviest subtree is replaced, round by round, by the children below its own
+// chain of single children (a separator's rows, which join the rows after); each round's
+// subtrees fill two bins, largest first into the lighter. Of these splits the one with the
+// least predicted time (the heavier bin plus the rows after, in column count^2) is taken
+// if it is at most 0.8 of one thread's; else every row comes after (one thread, as
+// cholmod_factorize).
 SubtreeSchedule plan_subtree_schedule(cholmod_sparse* S, const cholmod_factor* L, cholmod_common* common);
 
 // L = the LDL^T factor of S by `schedule` (S = triu(P A P'), as cholmod_factorize builds
