@@ -151,7 +151,7 @@ class PressureSystem {
   void assemble(Real dt) {
     constraint_.resize(rows_, inverse_mass_.size());
     if (column_extension_.empty()) {
-      constraint_.setFromTriplets(triplets_.begin(), triplets_.end());
+      set_rows(constraint_, triplets_);
     } else {
       std::vector<Eigen::Triplet<Real>> extended;
       extended.reserve(triplets_.size());
@@ -282,6 +282,31 @@ class PressureSystem {
  private:
   Eigen::VectorXd inverse_mass_;
   std::vector<Block> blocks_;
+  // D = the triplets' sum, sized beforehand. The fluid operators emit their rows in
+  // order, each row's columns rising (corners in layout order), and each entry once: such
+  // triplets are copied straight into D's compressed rows, the same matrix as Eigen's
+  // setFromTriplets builds (a transposed copy, its repeats summed, then transposed back;
+  // 2.6 % of the main thread at a/128). Any other triplets go through setFromTriplets.
+  static void set_rows(SparseRowMatrix& D, const std::vector<Eigen::Triplet<Real>>& triplets) {
+    for (std::size_t e = 1; e < triplets.size(); ++e) {
+      const auto& before = triplets[e - 1];
+      const auto& entry = triplets[e];
+      if (entry.row() < before.row() || (entry.row() == before.row() && entry.col() <= before.col())) {
+        D.setFromTriplets(triplets.begin(), triplets.end());
+        return;
+      }
+    }
+    D.resizeNonZeros(Eigen::Index(triplets.size()));
+    int* start = D.outerIndexPtr();
+    std::fill(start, start + D.rows() + 1, 0);
+    for (std::size_t e = 0; e < triplets.size(); ++e) {
+      ++start[triplets[e].row() + 1];
+      D.innerIndexPtr()[e] = triplets[e].col();
+      D.valuePtr()[e] = triplets[e].value();
+    }
+    for (Eigen::Index i = 0; i < D.rows(); ++i) start[i + 1] += start[i];
+  }
+
   std::vector<Eigen::Triplet<Real>> triplets_;
   std::vector<Real> compliance_;
   std::vector<Real> offset_rhs_;

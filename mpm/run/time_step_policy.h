@@ -41,7 +41,9 @@ class TimeStepPolicy {
     const GridLayout<dim> cells = grid.dual_cells();
     const Real spray_volume = Real(0.5 + 1e-9) * grid.cell_volume();  // half a cell, to round-off
     Real max_speed = 0;
-    for (std::size_t p = 0; p < fluid.size(); ++p) {
+    const int n = int(fluid.size());
+#pragma omp parallel for schedule(static) reduction(max : max_speed)
+    for (int p = 0; p < n; ++p) {
       Real speed = fluid.velocity[p].norm();
       if (!material.empty()) {
         const IVec<dim> cell = dual_cell_of<dim>(grid.to_cells(fluid.position[p]));

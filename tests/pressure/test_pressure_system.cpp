@@ -461,5 +461,57 @@ TEST(PressureSystemVacantRowTest, RowOnHeldVelocitiesIsAUnitRowWithZeroMultiplie
   EXPECT_LT(system.relative_constraint_residual(v_star, v_next, x), 1e-12);  // the vacant row is not counted
 }
 
+// D is copied straight into compressed rows when the blocks' triplets come by row with
+// rising columns and no repeats (as the fluid operators emit them), and built by Eigen's
+// setFromTriplets otherwise (repeats summed): both give Eigen's matrix, bit for bit, and
+// the same A. An explicit zero is kept as an entry, as setFromTriplets keeps it.
+TEST(PressureSystemAssemblyTest, DFromOrderedTripletsEqualsSetFromTripletsAndRepeatsAreSummed) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<Real> uniform(-1, 1);
+  const int velocities = 40, rows = 12, wall_rows = 3;
+  Eigen::VectorXd inverse_mass(velocities);
+  for (int k = 0; k < velocities; ++k) inverse_mass[k] = 1 + 0.5 * uniform(rng);
+  std::vector<Eigen::Triplet<Real>> divergence, wall;
+  for (int r = 0; r < rows; ++r)
+    for (int k = 0; k < velocities; ++k)
+      if (uniform(rng) > 0.6) divergence.emplace_back(r, k, r == 3 && k < 8 ? 0.0 : uniform(rng));
+  for (int r = 0; r < wall_rows; ++r) wall.emplace_back(r, 2 * r + 1, uniform(rng));
+  auto reference = [&](const std::vector<Eigen::Triplet<Real>>& all) {
+    SparseRowMatrix D(rows + wall_rows, velocities);
+    D.setFromTriplets(all.begin(), all.end());
+    return D;
+  };
+  auto same = [](const SparseRowMatrix& a, const SparseRowMatrix& b) {
+    return a.nonZeros() == b.nonZeros() && std::equal(a.outerIndexPtr(), a.outerIndexPtr() + a.rows() + 1, b.outerIndexPtr()) &&
+           std::equal(a.innerIndexPtr(), a.innerIndexPtr() + a.nonZeros(), b.innerIndexPtr()) &&
+           std::equal(a.valuePtr(), a.valuePtr() + a.nonZeros(), b.valuePtr());
+  };
+  std::vector<Eigen::Triplet<Real>> stacked = divergence;
+  for (const auto& t : wall) stacked.emplace_back(t.row() + rows, t.col(), t.value());
+  {
+    PressureSystem system;
+    system.reset(inverse_mass);
+    system.add_block("divergence", rows, divergence);
+    system.add_block("wall", wall_rows, wall);
+    system.assemble(0.01);
+    EXPECT_TRUE(same(system.constraint(), reference(stacked)));
+  }
+  // Out of order, one entry split in two: setFromTriplets' sum.
+  std::vector<Eigen::Triplet<Real>> shuffled = divergence;
+  std::shuffle(shuffled.begin(), shuffled.end(), rng);
+  const Eigen::Triplet<Real> split = shuffled.back();
+  shuffled.back() = Eigen::Triplet<Real>(split.row(), split.col(), 0.25 * split.value());
+  shuffled.emplace_back(split.row(), split.col(), 0.75 * split.value());
+  PressureSystem system;
+  system.reset(inverse_mass);
+  system.add_block("divergence", rows, shuffled);
+  system.add_block("wall", wall_rows, wall);
+  system.assemble(0.01);
+  std::vector<Eigen::Triplet<Real>> shuffled_stacked = shuffled;
+  for (const auto& t : wall) shuffled_stacked.emplace_back(t.row() + rows, t.col(), t.value());
+  EXPECT_TRUE(same(system.constraint(), reference(shuffled_stacked)));
+  EXPECT_EQ(system.constraint().nonZeros(), reference(stacked).nonZeros());
+}
+
 }  // namespace
 }  // namespace iqmpm
