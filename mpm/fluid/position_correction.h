@@ -49,9 +49,11 @@ std::vector<Real> position_correction_targets(const Grid<dim>& grid, const Fluid
   const Real cell_volume = grid.cell_volume();
   const int np = ops.pressure_unknowns();
   std::vector<Real> excess(np);
+#pragma omp parallel for schedule(static)
   for (int i = 0; i < np; ++i) excess[i] = volume[ops.cell_of_pressure[i]] / cell_volume - 1;
   const GridLayout<dim> cells = grid.dual_cells();
   std::vector<Real> target(np, 0);
+#pragma omp parallel for schedule(dynamic, 1024)
   for (int i = 0; i < np; ++i) {
     Real e = 0;
     if (full[i]) {
@@ -78,13 +80,17 @@ std::vector<Real> position_correction_targets(const Grid<dim>& grid, const Fluid
 // Moves each fluid particle by the N1 interpolation of the corner displacement d, stacked
 // per fluid velocity unknown of `ops` from `offset` on, each corner's at most
 // `largest_step` long.
+// A corner without an unknown does not move; the particles' corners are found through
+// ops.dof_of_corner, not a displacement array over the whole grid (zeroing and filling
+// one took as long as moving the particles at a/128).
 template <int dim>
 void displace_fluid_particles(const Grid<dim>& grid, const FluidOperators<dim>& ops, const Eigen::VectorXd& displacement,
                               int offset, Real largest_step, Particles<dim>& fluid) {
   const GridLayout<dim> corners = grid.corners();
-  std::vector<Vec<dim>> corner_displacement(corners.size(), Vec<dim>::Zero());
+  std::vector<Vec<dim>> dof_displacement(ops.velocity_dofs());
+#pragma omp parallel for schedule(static)
   for (int d = 0; d < ops.velocity_dofs(); ++d) {
-    Vec<dim>& step = corner_displacement[ops.corner_of_dof[d]];
+    Vec<dim>& step = dof_displacement[d];
     for (int a = 0; a < dim; ++a) step[a] = displacement[offset + d * dim + a];
     if (step.norm() > largest_step) step *= largest_step / step.norm();
   }
@@ -93,7 +99,10 @@ void displace_fluid_particles(const Grid<dim>& grid, const FluidOperators<dim>& 
   for (int p = 0; p < n; ++p) {
     const auto stencil = linear_stencil<dim>(grid.to_cells(fluid.position[p]), grid.dx);
     Vec<dim> shift = Vec<dim>::Zero();
-    for_each_offset<dim, 2>([&](const IVec<dim>& o) { shift += stencil.weight(o) * corner_displacement[corners.index(stencil.base + o)]; });
+    for_each_offset<dim, 2>([&](const IVec<dim>& o) {
+      const int d = ops.dof_of_corner[corners.index(stencil.base + o)];
+      if (d >= 0) shift += stencil.weight(o) * dof_displacement[d];
+    });
     fluid.position[p] += shift;
   }
 }
