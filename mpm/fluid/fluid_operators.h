@@ -260,22 +260,40 @@ FluidOperators<dim> build_fluid_operators(const Grid<dim>& grid, const Particles
       for_each_volume_point(ops.cell_of_pressure[row], accumulate);
     }
   }
-  ops.gradient_transpose.reserve(std::size_t(np) * (1 << dim) * dim);
+  // The rows' entries are counted, then written on the threads, each row at its place.
+  std::vector<int> row_start(np + 1, 0);
+#pragma omp parallel for schedule(dynamic, 1024)
+  for (int row = 0; row < np; ++row) {
+    const IVec<dim> cell = cells.multi_index(ops.cell_of_pressure[row]);
+    int count = 0;
+    for_each_offset<dim, 2>([&](const IVec<dim>& offset) { count += ops.dof_of_corner[corners.index(cell + offset)] >= 0 ? dim : 0; });
+    row_start[row + 1] = count;
+  }
+  for (int row = 0; row < np; ++row) row_start[row + 1] += row_start[row];
+  ops.gradient_transpose.resize(row_start[np]);
+#pragma omp parallel for schedule(dynamic, 1024)
   for (int row = 0; row < np; ++row) {
     const IVec<dim> cell = cells.multi_index(ops.cell_of_pressure[row]);
     const Eigen::Matrix<Real, dim, (1 << dim)>& integral = integrals[row];
-    int corner = 0;
+    int corner = 0, entry = row_start[row];
     for_each_offset<dim, 2>([&](const IVec<dim>& offset) {
-      const int k = corners.index(cell + offset);
-      const int dof = ops.dof_of_corner[k];
+      const int dof = ops.dof_of_corner[corners.index(cell + offset)];
       if (dof >= 0)
-        for (int a = 0; a < dim; ++a)
-          ops.gradient_transpose.emplace_back(row, dof * dim + a, -integral(a, corner));
-      else if (real_fluid_bins)  // a corner inside a solid: its velocity is the solid's (caller maps it)
-        ops.solid_corner_gradient.push_back({row, k, -integral.col(corner)});
+        for (int a = 0; a < dim; ++a) ops.gradient_transpose[entry++] = Triplet(row, dof * dim + a, -integral(a, corner));
       ++corner;
     });
   }
+  // Corners inside a solid: their velocity is the solid's (the caller maps them).
+  if (real_fluid_bins)
+    for (int row = 0; row < np; ++row) {
+      const IVec<dim> cell = cells.multi_index(ops.cell_of_pressure[row]);
+      int corner = 0;
+      for_each_offset<dim, 2>([&](const IVec<dim>& offset) {
+        const int k = corners.index(cell + offset);
+        if (ops.dof_of_corner[k] < 0) ops.solid_corner_gradient.push_back({row, k, -integrals[row].col(corner)});
+        ++corner;
+      });
+    }
 
   // B rows: one face quadrature point per face between a fluid cell and a slip wall,
   // weight dx^(dim-1), outward normal of the fluid; N1 at the face centre is 2^(1-dim)
