@@ -64,6 +64,48 @@ struct Cholmod {
   }
 };
 
+// factorise_by_subtrees on one and on two threads: the same bits on both, the pattern of
+// cholmod_factorize's factor `reference`, its values to round-off of each column's size,
+// and `negative_pivots` negative entries of D.
+void expect_cholmods_factor_on_one_and_two_threads(cholmod_sparse& view, std::vector<int> order, cholmod_sparse* S,
+                                                   const cholmod_factor* reference, const SubtreeSchedule& schedule,
+                                                   Cholmod& cholmod, int negative_pivots) {
+  cholmod_common* common = &cholmod.common[0];
+  const int n = int(reference->n);
+  const int* Rp = static_cast<const int*>(reference->p);
+  const int* Rnz = static_cast<const int*>(reference->nz);
+  const int* Ri = static_cast<const int*>(reference->i);
+  const double* Rx = static_cast<const double*>(reference->x);
+  std::vector<double> values[2];
+  for (int threads : {1, 2}) {
+    SCOPED_TRACE(threads);
+    cholmod_factor* L = cholmod_analyze_p(&view, order.data(), nullptr, 0, common);
+    ASSERT_NE(L, nullptr);
+    ASSERT_TRUE(factorise_by_subtrees(S, L, schedule, threads, &cholmod.common[0], &cholmod.common[1]));
+    const int* Lp = static_cast<const int*>(L->p);
+    const int* Lnz = static_cast<const int*>(L->nz);
+    const int* Li = static_cast<const int*>(L->i);
+    const double* Lx = static_cast<const double*>(L->x);
+    double largest_difference = 0;
+    int negative = 0;
+    for (int j = 0; j < n; ++j) {
+      ASSERT_EQ(Lnz[j], Rnz[j]) << "column " << j;
+      double size = 0;
+      for (int q = 0; q < Rnz[j]; ++q) size = std::max(size, std::abs(Rx[Rp[j] + q]));
+      for (int q = 0; q < Lnz[j]; ++q) {
+        ASSERT_EQ(Li[Lp[j] + q], Ri[Rp[j] + q]) << "column " << j;
+        largest_difference = std::max(largest_difference, std::abs(Lx[Lp[j] + q] - Rx[Rp[j] + q]) / size);
+        values[threads - 1].push_back(Lx[Lp[j] + q]);
+      }
+      negative += Lx[Lp[j]] < 0;
+    }
+    EXPECT_LT(largest_difference, 1e-13);
+    EXPECT_EQ(negative, negative_pivots);
+    cholmod_free_factor(&L, common);
+  }
+  EXPECT_TRUE(values[0] == values[1]);
+}
+
 TEST(SubtreeFactorisationTest, SameFactorAsCholmodToRoundOffAndTheSameBitsOnOneAndTwoThreads) {
   const int n = 72;  // 5 184 unknowns
   const IVec<2> extent(n, n);
@@ -86,37 +128,7 @@ TEST(SubtreeFactorisationTest, SameFactorAsCholmodToRoundOffAndTheSameBitsOnOneA
     ASSERT_TRUE(schedule.split());
     ASSERT_FALSE(schedule.after.empty());
 
-    std::vector<double> values[2];
-    for (int threads : {1, 2}) {
-      cholmod_factor* L = cholmod_analyze_p(&view, order.data(), nullptr, 0, common);
-      ASSERT_TRUE(factorise_by_subtrees(S, L, schedule, threads, &cholmod.common[0], &cholmod.common[1]));
-      // The same pattern as cholmod_factorize's; the values to round-off of each column's size.
-      const int* Lp = static_cast<const int*>(L->p);
-      const int* Lnz = static_cast<const int*>(L->nz);
-      const int* Li = static_cast<const int*>(L->i);
-      const double* Lx = static_cast<const double*>(L->x);
-      const int* Rp = static_cast<const int*>(reference->p);
-      const int* Rnz = static_cast<const int*>(reference->nz);
-      const int* Ri = static_cast<const int*>(reference->i);
-      const double* Rx = static_cast<const double*>(reference->x);
-      double largest_difference = 0;
-      int negative_pivots = 0;
-      for (int j = 0; j < n * n; ++j) {
-        ASSERT_EQ(Lnz[j], Rnz[j]) << "column " << j;
-        double size = 0;
-        for (int q = 0; q < Rnz[j]; ++q) size = std::max(size, std::abs(Rx[Rp[j] + q]));
-        for (int q = 0; q < Lnz[j]; ++q) {
-          ASSERT_EQ(Li[Lp[j] + q], Ri[Rp[j] + q]) << "column " << j;
-          largest_difference = std::max(largest_difference, std::abs(Lx[Lp[j] + q] - Rx[Rp[j] + q]) / size);
-          values[threads - 1].push_back(Lx[Lp[j] + q]);
-        }
-        negative_pivots += Lx[Lp[j]] < 0;
-      }
-      EXPECT_LT(largest_difference, 1e-13);
-      EXPECT_EQ(negative_pivots, quasi_definite ? n : 0);
-      cholmod_free_factor(&L, common);
-    }
-    EXPECT_TRUE(values[0] == values[1]);
+    expect_cholmods_factor_on_one_and_two_threads(view, order, S, reference, schedule, cholmod, quasi_definite ? n : 0);
     cholmod_free_sparse(&lower, common);
     cholmod_free_sparse(&S, common);
     cholmod_free_factor(&reference, common);
@@ -165,28 +177,7 @@ TEST(SubtreeFactorisationTest, AnUnevenTreeIsSplitBelowItsSeparatorChains) {
   const double one_thread = schedule.bin_work[0] + schedule.bin_work[1] + schedule.after_work;
   EXPECT_LT(std::max(schedule.bin_work[0], schedule.bin_work[1]) + schedule.after_work, 0.6 * one_thread);
 
-  std::vector<double> values[2];
-  for (int threads : {1, 2}) {
-    cholmod_factor* L = cholmod_analyze_p(&view, order.data(), nullptr, 0, common);
-    ASSERT_TRUE(factorise_by_subtrees(S, L, schedule, threads, &cholmod.common[0], &cholmod.common[1]));
-    const int* Lp = static_cast<const int*>(L->p);
-    const int* Lnz = static_cast<const int*>(L->nz);
-    const double* Lx = static_cast<const double*>(L->x);
-    const int* Rp = static_cast<const int*>(reference->p);
-    const double* Rx = static_cast<const double*>(reference->x);
-    double largest_difference = 0;
-    for (int j = 0; j < m; ++j) {
-      double size = 0;
-      for (int q = 0; q < Lnz[j]; ++q) size = std::max(size, std::abs(Rx[Rp[j] + q]));
-      for (int q = 0; q < Lnz[j]; ++q) {
-        largest_difference = std::max(largest_difference, std::abs(Lx[Lp[j] + q] - Rx[Rp[j] + q]) / size);
-        values[threads - 1].push_back(Lx[Lp[j] + q]);
-      }
-    }
-    EXPECT_LT(largest_difference, 1e-13);
-    cholmod_free_factor(&L, common);
-  }
-  EXPECT_TRUE(values[0] == values[1]);
+  expect_cholmods_factor_on_one_and_two_threads(view, order, S, reference, schedule, cholmod, 0);
   cholmod_free_sparse(&lower, common);
   cholmod_free_sparse(&S, common);
   cholmod_free_factor(&reference, common);
