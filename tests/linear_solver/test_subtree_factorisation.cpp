@@ -64,6 +64,27 @@ struct Cholmod {
   }
 };
 
+// cholmod_factorize's factor of `view` in `order` and S = triu(P A P') as it builds it.
+struct ReferenceFactor {
+  cholmod_common* common;
+  cholmod_factor* factor = nullptr;
+  cholmod_sparse* lower = nullptr;
+  cholmod_sparse* S = nullptr;
+  ReferenceFactor(cholmod_sparse& view, std::vector<int> order, cholmod_common* c) : common(c) {
+    factor = cholmod_analyze_p(&view, order.data(), nullptr, 0, common);
+    if (!factor || !cholmod_factorize(&view, factor, common)) return;
+    lower = cholmod_ptranspose(&view, 2, static_cast<int*>(factor->Perm), nullptr, 0, common);
+    S = cholmod_ptranspose(lower, 2, nullptr, nullptr, 0, common);
+  }
+  ~ReferenceFactor() {
+    cholmod_free_sparse(&lower, common);
+    cholmod_free_sparse(&S, common);
+    cholmod_free_factor(&factor, common);
+  }
+  ReferenceFactor(const ReferenceFactor&) = delete;
+  ReferenceFactor& operator=(const ReferenceFactor&) = delete;
+};
+
 // factorise_by_subtrees on one and on two threads: the same bits on both, the pattern of
 // cholmod_factorize's factor `reference`, its values to round-off of each column's size,
 // and `negative_pivots` negative entries of D.
@@ -116,22 +137,16 @@ TEST(SubtreeFactorisationTest, SameFactorAsCholmodToRoundOffAndTheSameBitsOnOneA
     SCOPED_TRACE(quasi_definite ? "quasi-definite" : "positive definite");
     const SparseMatrix A = stencil(n, 5, quasi_definite);
     Cholmod cholmod;
-    cholmod_common* common = &cholmod.common[0];
     cholmod_sparse view = Eigen::viewAsCholmod(A.selfadjointView<Eigen::Upper>());
-    cholmod_factor* reference = cholmod_analyze_p(&view, order.data(), nullptr, 0, common);
-    ASSERT_NE(reference, nullptr);
-    ASSERT_TRUE(cholmod_factorize(&view, reference, common));
-    ASSERT_EQ(reference->minor, reference->n);
-    cholmod_sparse* lower = cholmod_ptranspose(&view, 2, static_cast<int*>(reference->Perm), nullptr, 0, common);
-    cholmod_sparse* S = cholmod_ptranspose(lower, 2, nullptr, nullptr, 0, common);
-    const SubtreeSchedule schedule = plan_subtree_schedule(S, reference, common);
+    const ReferenceFactor reference(view, order, &cholmod.common[0]);
+    ASSERT_NE(reference.S, nullptr);
+    ASSERT_EQ(reference.factor->minor, reference.factor->n);
+    const SubtreeSchedule schedule = plan_subtree_schedule(reference.S, reference.factor, &cholmod.common[0]);
     ASSERT_TRUE(schedule.split());
     ASSERT_FALSE(schedule.after.empty());
 
-    expect_cholmods_factor_on_one_and_two_threads(view, order, S, reference, schedule, cholmod, quasi_definite ? n : 0);
-    cholmod_free_sparse(&lower, common);
-    cholmod_free_sparse(&S, common);
-    cholmod_free_factor(&reference, common);
+    expect_cholmods_factor_on_one_and_two_threads(view, order, reference.S, reference.factor, schedule, cholmod,
+                                                  quasi_definite ? n : 0);
   }
 }
 
@@ -163,24 +178,17 @@ TEST(SubtreeFactorisationTest, AnUnevenTreeIsSplitBelowItsSeparatorChains) {
   for (int cell : nested_dissection_of_cells(layout, region)) order.push_back(row_of_cell[cell]);
 
   Cholmod cholmod;
-  cholmod_common* common = &cholmod.common[0];
   cholmod_sparse view = Eigen::viewAsCholmod(A.selfadjointView<Eigen::Upper>());
-  cholmod_factor* reference = cholmod_analyze_p(&view, order.data(), nullptr, 0, common);
-  ASSERT_NE(reference, nullptr);
-  ASSERT_TRUE(cholmod_factorize(&view, reference, common));
-  cholmod_sparse* lower = cholmod_ptranspose(&view, 2, static_cast<int*>(reference->Perm), nullptr, 0, common);
-  cholmod_sparse* S = cholmod_ptranspose(lower, 2, nullptr, nullptr, 0, common);
-  const SubtreeSchedule schedule = plan_subtree_schedule(S, reference, common);
+  const ReferenceFactor reference(view, order, &cholmod.common[0]);
+  ASSERT_NE(reference.S, nullptr);
+  const SubtreeSchedule schedule = plan_subtree_schedule(reference.S, reference.factor, &cholmod.common[0]);
   ASSERT_TRUE(schedule.split());
   // The rows after the bins are one thread's: the heavier bin and they take at most 60 % of
   // the one-thread work (the old plan: all of it).
   const double one_thread = schedule.bin_work[0] + schedule.bin_work[1] + schedule.after_work;
   EXPECT_LT(std::max(schedule.bin_work[0], schedule.bin_work[1]) + schedule.after_work, 0.6 * one_thread);
 
-  expect_cholmods_factor_on_one_and_two_threads(view, order, S, reference, schedule, cholmod, 0);
-  cholmod_free_sparse(&lower, common);
-  cholmod_free_sparse(&S, common);
-  cholmod_free_factor(&reference, common);
+  expect_cholmods_factor_on_one_and_two_threads(view, order, reference.S, reference.factor, schedule, cholmod, 0);
 }
 
 // Two one-node bins below one row: [[2, 0, 1], [0, 2, 1], [1, 1, d]]. The row above the bins
