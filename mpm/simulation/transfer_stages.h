@@ -5,6 +5,7 @@
 #include <cmath>
 #include <fmt/format.h>
 #include <limits>
+#include <string>
 
 #include "core/errors.h"
 #include "fluid/position_correction.h"
@@ -140,44 +141,46 @@ template <int dim>
 void Simulation<dim>::keep_particles_in_domain(Particles<dim>& particles, const char* kind) {
   const Vec<dim> lower = grid_.origin, upper = grid_.upper();
   const Real margin = 1e-4 * grid_.dx;
-  // Clamps a particle; false if it cannot be kept (not finite, or out through a side that
-  // is not a slip wall or by more than a cell).
-  auto keep = [&](Vec<dim>& x, const Vec<dim>& v, int& clamps) {
-    if (!x.allFinite() || !v.allFinite()) return false;
+  // Clamps particle p; false if it cannot be kept (not finite, or out through a side that
+  // is not a slip wall or by more than a cell), with the reason in `why` if given.
+  auto keep = [&](int p, int& clamps, std::string* why) {
+    Vec<dim>& x = particles.position[p];
+    if (!x.allFinite() || !particles.velocity[p].allFinite()) {
+      if (why) *why = fmt::format("{} particle {} has a non-finite position or velocity (NaN): the step was unstable", kind, p);
+      return false;
+    }
     for (int a = 0; a < dim; ++a)
       for (int s = 0; s < 2; ++s) {
         const Real wall = s == 0 ? lower[a] : upper[a];
         const Real outside = s == 0 ? wall - x[a] : x[a] - wall;
         if (outside < -margin) continue;
-        if (!slip_[a][s] || outside > grid_.dx) return false;
+        if (!slip_[a][s] || outside > grid_.dx) {
+          if (why)
+            *why = fmt::format("{} particle {} left the domain through side {}{} at {:.4g} m (wall at {:.4g} m){}", kind, p,
+                               "xyz"[a], s == 0 ? '-' : '+', x[a], wall,
+                               slip_[a][s] ? ": more than a cell beyond the wall in one step, lower cfl" : "");
+          return false;
+        }
         x[a] = s == 0 ? wall + margin : wall - margin;
         ++clamps;
       }
     return true;
   };
   // On the threads; a failure is reported for the first particle that fails, by index, as
-  // one loop over the particles finds it (a failed step is undone or ends the run).
+  // one loop over the particles finds it (a failed step is undone or ends the run). Its
+  // sides kept before the failing one are at the wall again, so a second pass over it
+  // stops at the same side.
   const int n = int(particles.size());
   int first_failure = n, clamps = 0;
 #pragma omp parallel for schedule(static) reduction(min : first_failure) reduction(+ : clamps)
   for (int p = 0; p < n; ++p)
-    if (!keep(particles.position[p], particles.velocity[p], clamps)) first_failure = std::min(first_failure, p);
+    if (!keep(p, clamps, nullptr)) first_failure = std::min(first_failure, p);
   last_.wall_clamps += clamps;
   if (first_failure == n) return;
-  const int p = first_failure;
-  const Vec<dim>& x = particles.position[p];
-  if (!x.allFinite() || !particles.velocity[p].allFinite())
-    throw NumericalFailure(fmt::format("{} particle {} has a non-finite position or velocity (NaN): the step was unstable", kind, p));
-  for (int a = 0; a < dim; ++a)
-    for (int s = 0; s < 2; ++s) {
-      const Real wall = s == 0 ? lower[a] : upper[a];
-      const Real outside = s == 0 ? wall - x[a] : x[a] - wall;
-      if (outside >= -margin && (!slip_[a][s] || outside > grid_.dx))
-        throw NumericalFailure(fmt::format(
-            "{} particle {} left the domain through side {}{} at {:.4g} m (wall at {:.4g} m){}", kind, p, "xyz"[a],
-            s == 0 ? '-' : '+', x[a], wall, slip_[a][s] ? ": more than a cell beyond the wall in one step, lower cfl" : ""));
-    }
-  throw NumericalFailure(fmt::format("{} particle {} left the domain", kind, p));
+  std::string why;
+  int ignored = 0;
+  keep(first_failure, ignored, &why);
+  throw NumericalFailure(why);
 }
 
 }  // namespace iqmpm
