@@ -229,6 +229,7 @@ class UpdatableLdlSolver final : public LinearSolver {
   cholmod_factor* factor_ = nullptr;
   SubtreeSchedule schedule_;      // of factor_'s analysis; planned at its first factorisation
   bool schedule_planned_ = false;
+  SubtreeSolveWorkspace solve_workspace_;
   int factor_threads_ = 1;        // of the last factorisation
   bool factor_valid_ = false;
   SparsityPattern pattern_;
@@ -386,7 +387,14 @@ class UpdatableLdlSolver final : public LinearSolver {
     return true;
   }
 
+  // By the factorisation's subtrees where it was split (on two threads where the run has
+  // them: subtree_factorisation.h), else cholmod_solve.
   void solve_with_factor(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
+    if (schedule_planned_ && schedule_.split() && !factor_->is_super && !factor_->is_ll) {
+      x.resize(b.size());
+      const int threads = std::min(2, omp_get_max_threads());
+      if (solve_by_subtrees(factor_, schedule_, threads, b.data(), x.data(), solve_workspace_)) return;
+    }
     cholmod_dense rhs{};
     rhs.nrow = b.size();
     rhs.ncol = 1;

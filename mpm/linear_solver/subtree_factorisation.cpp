@@ -246,7 +246,93 @@ bool rows_after_bins(cholmod_sparse* S, cholmod_factor* factor, const SubtreeSch
   return true;
 }
 
+// The forward solve in bin b's columns: y_j /= D(j) and y_i -= L(i, j) y_j (the undivided
+// y_j, as CHOLMOD's LD solve), the rows after the bins' share kept in `carry`. A column's
+// rows in its own subtree are those up to the subtree's root, the others are after the
+// bins. False where a column has an entry in the other bin.
+bool forward_in_bin(const cholmod_factor* L, const SubtreeSchedule& schedule, int b, double* y, double* carry) {
+  const int* start = static_cast<const int*>(L->p);
+  const int* count = static_cast<const int*>(L->nz);
+  const int* row = static_cast<const int*>(L->i);
+  const double* value = static_cast<const double*>(L->x);
+  bool linked = false;
+  for (const auto& [first, end] : schedule.bins[b])
+    for (int j = first; j < end; ++j) {
+      const double y_j = y[j];
+      y[j] = y_j / value[start[j]];
+      for (int p = start[j] + 1, last = start[j] + count[j]; p < last; ++p) {
+        const int i = row[p];
+        if (i < end) {
+          y[i] -= value[p] * y_j;
+        } else {
+          carry[i] -= value[p] * y_j;
+          linked |= schedule.group[i] != SubtreeSchedule::kAfterBins;
+        }
+      }
+    }
+  return !linked;
+}
+
+// The backward solve, L^T x = y in place, in the columns of `ranges`, last row first. Each
+// column's sum in four parts (one chain of dependent additions would bound it by the
+// adder's latency).
+void backward(const cholmod_factor* L, const std::vector<std::pair<int, int>>& ranges, double* y) {
+  const int* start = static_cast<const int*>(L->p);
+  const int* count = static_cast<const int*>(L->nz);
+  const int* row = static_cast<const int*>(L->i);
+  const double* value = static_cast<const double*>(L->x);
+  for (auto range = ranges.rbegin(); range != ranges.rend(); ++range)
+    for (int j = range->second - 1; j >= range->first; --j) {
+      double sum[4] = {0, 0, 0, 0};
+      int p = start[j] + 1;
+      const int last = start[j] + count[j];
+      for (; p + 4 <= last; p += 4)
+        for (int q = 0; q < 4; ++q) sum[q] += value[p + q] * y[row[p + q]];
+      for (int q = 0; p < last; ++p, ++q) sum[q] += value[p] * y[row[p]];
+      y[j] -= (sum[0] + sum[1]) + (sum[2] + sum[3]);
+    }
+}
+
 }  // namespace
+
+bool solve_by_subtrees(const cholmod_factor* L, const SubtreeSchedule& schedule, int threads, const double* b, double* x,
+                       SubtreeSolveWorkspace& workspace) {
+  const int n = int(L->n);
+  const int* perm = static_cast<const int*>(L->Perm);
+  const int* start = static_cast<const int*>(L->p);
+  const int* count = static_cast<const int*>(L->nz);
+  const int* row = static_cast<const int*>(L->i);
+  const double* value = static_cast<const double*>(L->x);
+  std::vector<double>& y = workspace.y;
+  auto& carry = workspace.carry;
+  y.resize(n);
+  for (auto& c : carry)
+    if (int(c.size()) != n) c.assign(n, 0.0);  // kept zero between solves
+  for (int k = 0; k < n; ++k) y[k] = b[perm[k]];
+  bool unlinked[2] = {true, true};
+#pragma omp parallel for num_threads(threads) schedule(static, 1)
+  for (int bin = 0; bin < 2; ++bin) unlinked[bin] = forward_in_bin(L, schedule, bin, y.data(), carry[bin].data());
+  if (!unlinked[0] || !unlinked[1]) {
+    for (auto& c : carry) std::fill(c.begin(), c.end(), 0.0);
+    return false;
+  }
+  for (const auto& [first, end] : schedule.after)
+    for (int k = first; k < end; ++k) {
+      y[k] = y[k] + carry[0][k] + carry[1][k];
+      carry[0][k] = carry[1][k] = 0;
+    }
+  for (const auto& [first, end] : schedule.after)
+    for (int j = first; j < end; ++j) {
+      const double y_j = y[j];
+      y[j] = y_j / value[start[j]];
+      for (int p = start[j] + 1, last = start[j] + count[j]; p < last; ++p) y[row[p]] -= value[p] * y_j;
+    }
+  backward(L, schedule.after, y.data());
+#pragma omp parallel for num_threads(threads) schedule(static, 1)
+  for (int bin = 0; bin < 2; ++bin) backward(L, schedule.bins[bin], y.data());
+  for (int k = 0; k < n; ++k) x[perm[k]] = y[k];
+  return true;
+}
 
 bool factorise_by_subtrees(cholmod_sparse* S, cholmod_factor* L, const SubtreeSchedule& schedule, int threads,
                            cholmod_common* first, cholmod_common* second) {

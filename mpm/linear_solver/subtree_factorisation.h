@@ -57,4 +57,22 @@ SubtreeSchedule plan_subtree_schedule(cholmod_sparse* S, const cholmod_factor* L
 bool factorise_by_subtrees(cholmod_sparse* S, cholmod_factor* L, const SubtreeSchedule& schedule, int threads,
                            cholmod_common* first, cholmod_common* second);
 
+// The vectors solve_by_subtrees works in, kept between solves (sized on first use).
+struct SubtreeSolveWorkspace {
+  std::vector<double> y;             // the permuted right-hand side, then the solution
+  std::array<std::vector<double>, 2> carry;  // per bin: what its columns subtract from the rows after
+};
+
+// x = A^-1 b from the simplicial LDL^T factor L = P A P' of a split `schedule` (as
+// factorise_by_subtrees computes it, or modified since by CHOLMOD's row updates, whose
+// patterns stay within the analysed one). A bin's columns of L have entries only in its own
+// rows and the rows after the bins, so the forward solve of the two bins runs on two
+// threads (each bin's subtractions from the rows after kept apart and added, bin 0's first,
+// before the rows after are solved) and the backward solve of the bins too, after the rows
+// after; the same bits on one thread. Differs from cholmod_solve at round-off (the order of
+// the rows after's sums). Returns false, with x untouched, where an entry of L links the
+// two bins (a pattern the schedule was not planned for).
+bool solve_by_subtrees(const cholmod_factor* L, const SubtreeSchedule& schedule, int threads, const double* b, double* x,
+                       SubtreeSolveWorkspace& workspace);
+
 }  // namespace iqmpm

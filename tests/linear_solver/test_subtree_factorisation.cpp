@@ -150,6 +150,85 @@ TEST(SubtreeFactorisationTest, SameFactorAsCholmodToRoundOffAndTheSameBitsOnOneA
   }
 }
 
+// solve_by_subtrees against cholmod_solve on the same factor: the same solution to
+// round-off, the same bits on one and two threads; also after CHOLMOD's row updates (a row
+// of a bin and a row after the bins deleted, as the active set releases rows), whose
+// patterns stay within the analysed one. A schedule that does not fit the factor (a row
+// after the bins said to be the other bin's) is refused with x untouched, and the next solve
+// with the right schedule in the same workspace is right again.
+TEST(SubtreeFactorisationTest, TheSolveBySubtreesIsCholmodsToRoundOffAndTheSameBitsOnOneAndTwoThreads) {
+  const int n = 72;
+  const IVec<2> extent(n, n);
+  const std::vector<int> rank = nested_dissection_rank<2>(GridLayout<2>(IVec<2>::Zero(), extent), extent);
+  std::vector<int> order(n * n);
+  for (int cell = 0; cell < n * n; ++cell) order[rank[cell]] = cell;
+  for (const bool quasi_definite : {false, true}) {
+    SCOPED_TRACE(quasi_definite ? "quasi-definite" : "positive definite");
+    const SparseMatrix A = stencil(n, 11, quasi_definite);
+    Cholmod cholmod;
+    cholmod_common* common = &cholmod.common[0];
+    cholmod_sparse view = Eigen::viewAsCholmod(A.selfadjointView<Eigen::Upper>());
+    const ReferenceFactor reference(view, order, common);
+    ASSERT_NE(reference.S, nullptr);
+    const SubtreeSchedule schedule = plan_subtree_schedule(reference.S, reference.factor, common);
+    ASSERT_TRUE(schedule.split());
+    cholmod_factor* L = cholmod_analyze_p(&view, order.data(), nullptr, 0, common);
+    ASSERT_NE(L, nullptr);
+    ASSERT_TRUE(factorise_by_subtrees(reference.S, L, schedule, 2, &cholmod.common[0], &cholmod.common[1]));
+
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<Real> uniform(-1, 1);
+    Eigen::VectorXd b(n * n);
+    for (Real& v : b) v = uniform(rng);
+    SubtreeSolveWorkspace workspace;
+    auto expect_cholmod_solve = [&](const char* what) {
+      SCOPED_TRACE(what);
+      cholmod_dense rhs = Eigen::viewAsCholmod(b);
+      cholmod_dense* expected = cholmod_solve(CHOLMOD_A, L, &rhs, common);
+      ASSERT_NE(expected, nullptr);
+      const Eigen::Map<const Eigen::VectorXd> x_cholmod(static_cast<const Real*>(expected->x), n * n);
+      Eigen::VectorXd x[2];
+      for (int threads : {1, 2}) {
+        x[threads - 1].resize(n * n);
+        ASSERT_TRUE(solve_by_subtrees(L, schedule, threads, b.data(), x[threads - 1].data(), workspace));
+      }
+      EXPECT_TRUE(x[0] == x[1]);
+      EXPECT_LT((x[0] - x_cholmod).lpNorm<Eigen::Infinity>(), 1e-13 * x_cholmod.lpNorm<Eigen::Infinity>());
+      cholmod_free_dense(&expected, common);
+    };
+    expect_cholmod_solve("as factorised");
+    EXPECT_LT((A * [&] {
+                Eigen::VectorXd x(n * n);
+                solve_by_subtrees(L, schedule, 2, b.data(), x.data(), workspace);
+                return x;
+              }() - b).norm(),
+              1e-12 * b.norm());
+
+    // A schedule that says a row after the bins, which bin 0's columns reach, is bin 1's.
+    const int* Lp = static_cast<const int*>(L->p);
+    const int* Lnz = static_cast<const int*>(L->nz);
+    const int* Li = static_cast<const int*>(L->i);
+    int reached_after = -1;
+    const auto [first, end] = schedule.bins[0].front();
+    for (int j = first; j < end && reached_after < 0; ++j)
+      for (int q = 1; q < Lnz[j]; ++q)
+        if (schedule.group[Li[Lp[j] + q]] == SubtreeSchedule::kAfterBins) reached_after = Li[Lp[j] + q];
+    ASSERT_GE(reached_after, 0);
+    SubtreeSchedule wrong = schedule;
+    wrong.group[reached_after] = 1;
+    Eigen::VectorXd untouched = Eigen::VectorXd::Constant(n * n, 7.0);
+    EXPECT_FALSE(solve_by_subtrees(L, wrong, 2, b.data(), untouched.data(), workspace));
+    EXPECT_TRUE((untouched.array() == 7.0).all());
+    expect_cholmod_solve("after a refused schedule");
+
+    // Rows released: one in bin 0 and one after the bins (L's indices).
+    ASSERT_TRUE(cholmod_rowdel(std::size_t(first + (end - first) / 2), nullptr, L, common));
+    ASSERT_TRUE(cholmod_rowdel(std::size_t(schedule.after.back().first), nullptr, L, common));
+    expect_cholmod_solve("after row deletions");
+    cholmod_free_factor(&L, common);
+  }
+}
+
 // An L-shaped region (a 240 x 240 grid without its top-right 120 x 120 quadrant, 43 200
 // unknowns as the dam break's at a/128), dissected as the solver dissects the water's
 // cells: the top separator splits it into a 120 x 240 part and a 120 x 120 part, two thirds
