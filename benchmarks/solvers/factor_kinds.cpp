@@ -4,10 +4,8 @@
 // core, BLAS on one thread. The ratio of flops to nnz(L) at which supernodal starts to win
 // is the LDL^T solver's supernodal switch (linear_solver/direct_solvers.cpp).
 //
-// Build and run from the repository root (see README.md beside it):
-//   g++ -O2 -std=c++17 -Impm -I/usr/include/eigen3 -I/usr/include/suitesparse
-//     benchmarks/solvers/factor_kinds.cpp -o out/factor_kinds -lcholmod   (one line)
-//   OMP_NUM_THREADS=1 out/factor_kinds DUMP_DIR:STEP [DUMP_DIR:STEP ...]
+// Built with the solver (CMakeLists.txt); run from the repository root:
+//   OMP_NUM_THREADS=1 build/factor_kinds DUMP_DIR:STEP [DUMP_DIR:STEP ...]
 // Prints a Markdown table: unknowns, nnz(L), flops / nnz(L), the fastest of 5
 // factorisations of each kind (ms) and their ratio.
 #include <Eigen/CholmodSupport>
@@ -16,71 +14,15 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <fstream>
-#include <iostream>
-#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
-#include "grid/nested_dissection.h"
+#include "dump_reader.h"
 
 namespace {
 
-struct Dump {
-  std::string name;
-  int n = 0, dim = 0;
-  Eigen::SparseMatrix<double> matrix;  // both triangles, as dumped
-  std::vector<int> order;  // the solver's elimination order
-};
-
-[[noreturn]] void fail(const std::string& message) {
-  std::cerr << "factor_kinds: " << message << "\n";
-  std::exit(2);
-}
-
-template <int dim>
-std::vector<int> cell_ranks(const std::vector<int>& cells) {
-  iqmpm::IVec<dim> extent;
-  for (int a = 0; a < dim; ++a) extent[a] = cells[a];
-  const iqmpm::GridLayout<dim> layout(iqmpm::IVec<dim>::Zero(), extent);
-  return iqmpm::nested_dissection_rank<dim>(layout, extent);
-}
-
-Dump read_dump(const std::string& argument) {
-  const auto colon = argument.rfind(':');
-  if (colon == std::string::npos) fail("expected DUMP_DIR:STEP, got '" + argument + "'");
-  const std::string dir = argument.substr(0, colon), step = argument.substr(colon + 1);
-  Dump dump;
-  dump.name = dir + " step " + step;
-  std::ifstream matrix(dir + "/system_step" + step + ".mtx");
-  if (!matrix) fail("cannot read " + dir + "/system_step" + step + ".mtx");
-  std::string line;
-  std::getline(matrix, line);
-  long rows, columns, entries;
-  matrix >> rows >> columns >> entries;
-  std::vector<Eigen::Triplet<double>> triplets;
-  for (long e = 0; e < entries; ++e) {
-    long i, j;
-    double v;
-    matrix >> i >> j >> v;
-    triplets.emplace_back(int(i - 1), int(j - 1), v);
-  }
-  dump.n = int(rows);
-  dump.matrix.resize(rows, columns);
-  dump.matrix.setFromTriplets(triplets.begin(), triplets.end());
-  std::ifstream layout_file(dir + "/layout_step" + step + ".json");
-  if (!layout_file) fail("cannot read " + dir + "/layout_step" + step + ".json");
-  const nlohmann::json layout = nlohmann::json::parse(layout_file);
-  const auto cells = layout.at("cells").get<std::vector<int>>();
-  const auto dual_cell = layout.at("dual_cell").get<std::vector<int>>();
-  dump.dim = int(cells.size());
-  const std::vector<int> rank = dump.dim == 2 ? cell_ranks<2>(cells) : cell_ranks<3>(cells);
-  std::vector<std::pair<int, int>> keyed(dump.n);
-  for (int u = 0; u < dump.n; ++u) keyed[u] = {u < int(dual_cell.size()) && dual_cell[u] >= 0 ? rank[dual_cell[u]] : 0, u};
-  std::sort(keyed.begin(), keyed.end());
-  for (const auto& [r, u] : keyed) dump.order.push_back(u);
-  return dump;
-}
+using dumped::Dump;
+using dumped::fail;
 
 struct Timing {
   double milliseconds = 0, lnz = 0, flops = 0;
@@ -122,7 +64,7 @@ Timing factorise(Dump& dump, bool supernodal) {
 int main(int argc, char** argv) {
   if (argc < 2) fail("usage: factor_kinds DUMP_DIR:STEP [DUMP_DIR:STEP ...]");
   std::vector<Dump> dumps;  // all read first: a missing file stops before any output
-  for (int k = 1; k < argc; ++k) dumps.push_back(read_dump(argv[k]));
+  for (int k = 1; k < argc; ++k) dumps.push_back(dumped::read_dump(argv[k]));
   std::printf("| matrix | dim | unknowns | nnz(L) | flops / nnz(L) | simplicial LDL^T (ms) | supernodal LL^T (ms) | simplicial / supernodal |\n");
   std::printf("|---|---|---|---|---|---|---|---|\n");
   for (Dump& dump : dumps) {
