@@ -295,12 +295,10 @@ class UpdatableLdlSolver final : public LinearSolver {
     cholmod_sparse s = view(A);
     const SerialBlasScope serial_blas;
     if (by_subtrees) {
-      // S = triu(P A P') in one permuting transpose, of A's lower triangle (A is stored in
-      // full; cholmod_factorize takes two from the upper one). The triangles differ at
-      // round-off: entries that cancel to about 1e-21 against a diagonal of 1e-6.
-      cholmod_sparse lower_view = s;
-      lower_view.stype = -1;
-      cholmod_sparse* upper = cholmod_ptranspose(&lower_view, 2, static_cast<int*>(factor_->Perm), nullptr, 0, &common_);
+      // S = triu(P A P'), as cholmod_factorize builds it.
+      cholmod_sparse* lower = cholmod_ptranspose(&s, 2, static_cast<int*>(factor_->Perm), nullptr, 0, &common_);
+      cholmod_sparse* upper = lower ? cholmod_ptranspose(lower, 2, nullptr, nullptr, 0, &common_) : nullptr;
+      cholmod_free_sparse(&lower, &common_);
       if (!upper) throw NumericalFailure("CHOLMOD could not permute the pressure system (out of memory?)");
       if (!schedule_planned_) schedule_ = plan_subtree_schedule(upper, factor_, &common_), schedule_planned_ = true;
       factor_threads_ = schedule_.split() ? threads : 1;
