@@ -69,14 +69,14 @@ class ProgressReporter {
 
 void print_stage_table(const Json& summary) {
   const double wall = summary["wall_time_s"].get<double>();
-  fmt::print("\n{:<18} {:>10} {:>8}\n", "stage", "seconds", "share");
+  fmt::print("\n{:<21} {:>10} {:>8}\n", "stage", "seconds", "share");
   double staged = 0;
   for (const auto& [stage, seconds] : summary["stage_seconds"].items()) {
-    fmt::print("{:<18} {:>10.3f} {:>7.1f}%\n", stage, seconds.get<double>(), 100 * seconds.get<double>() / wall);
+    fmt::print("{:<21} {:>10.3f} {:>7.1f}%\n", stage, seconds.get<double>(), 100 * seconds.get<double>() / wall);
     staged += seconds.get<double>();
   }
-  fmt::print("{:<18} {:>10.3f} {:>7.1f}%\n", "other (probes, IO)", wall - staged, 100 * (wall - staged) / wall);
-  fmt::print("{:<18} {:>10.3f}\n", "wall time", wall);
+  fmt::print("{:<21} {:>10.3f} {:>7.1f}%\n", "other (set-up, rest)", wall - staged, 100 * (wall - staged) / wall);
+  fmt::print("{:<21} {:>10.3f}\n", "wall time", wall);
   const auto& it = summary["linear_iterations"];
   fmt::print("steps {}, particles {}, active cells {} (max {}), solver {}, CG iterations min/mean/max {}/{:.1f}/{}, volume drift {:.3e} (particle measure {:.3e})\n",
              summary["steps"].get<long>(), summary["particles"].get<long>(), summary["active_cells"].get<int>(),

@@ -28,6 +28,12 @@
 namespace iqmpm {
 namespace {
 
+Json stage_object(const StageTimer& timer) {
+  Json stages = Json::object();
+  for (const auto& [stage, seconds] : timer.stages()) stages[stage] = seconds;
+  return stages;
+}
+
 template <int dim>
 ParticleFrame make_frame(const Simulation<dim>& sim, double time) {
   // Fluid particles (material 0, pressure p_f) then solid ones (1 + body, pressure p_g).
@@ -166,7 +172,9 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
   RunStatistics statistics;
   long dt_retries = 0;
   long solid_error_retakes = 0;  // steps taken again for their solid error (solid_step_error)
-  StageTimer checks_timer;  // the health checks' cost (a stage of summary.json's stage_seconds)
+  // The runner's own stages beside the simulation's in summary.json's stage_seconds: the
+  // health checks, the time step's size, the probes and the output.
+  StageTimer run_timer;
   // Of the seeded particles too (their pieces, the energy scale).
   std::unique_ptr<HealthChecks<dim>> health;
   if (scene.health.checks) health = std::make_unique<HealthChecks<dim>>(sim, scene.health.energy_growth);
@@ -181,7 +189,11 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
       resumed_from = state.at("resumed_from");
       dt_retries = state.at("dt_retries").get<long>();
       solid_error_retakes = state.value("solid_error_retakes", 0L);  // older checkpoints lack it
-      checks_timer.add("health checks", state.value("health_checks_s", 0.0));  // older checkpoints lack it
+      if (state.contains("run_stage_seconds")) {
+        for (const auto& [stage, seconds] : state.at("run_stage_seconds").items()) run_timer.add(stage, seconds.template get<double>());
+      } else {
+        run_timer.add("health checks", state.value("health_checks_s", 0.0));  // older checkpoints lack both
+      }
       result.metrics = unflatten_rows(archive.doubles("run.metrics"), result.columns.size());
       // A checkpoint written before solid_error existed has the columns before it (NaN there).
       const std::vector<std::string> stored_columns =
@@ -227,6 +239,7 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
                                                             std::vector<int>(sim.grid().cells.data(), sim.grid().cells.data() + dim));
 
   auto sample = [&](double time) {
+    auto scope = run_timer.scope("probes");
     std::vector<double> row{time};
     for (std::size_t i = 0; i < probes.size(); ++i) row.push_back(probes.evaluate(sim, i));
     result.metrics.push_back(std::move(row));
@@ -237,6 +250,7 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
   double last_checkpoint_wall_s = 0;
   int frames_since_checkpoint = 0;
   auto write_checkpoint = [&] {
+    auto scope = run_timer.scope("output");
     StateArchive archive;
     archive.record["format"] = "iqmpm checkpoint";
     archive.record["format_version"] = 1;
@@ -251,7 +265,7 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
                              {"dt_retries", dt_retries},
                              {"solid_error_retakes", solid_error_retakes},
                              {"step_columns", step_columns},
-                             {"health_checks_s", checks_timer.total()},
+                             {"run_stage_seconds", stage_object(run_timer)},
                              {"frames", writer->frames_written()}};
     archive.put("run.metrics", flatten_rows(result.metrics));
     archive.put("run.steps", flatten_rows(step_rows));
@@ -272,11 +286,14 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
   try {
     while (!policy.finished(t)) {
       const double next_stop = std::min(next_frame, end_time);
-      double dt = policy.next_dt(sim, t, next_stop);
+      double dt = [&] {
+        auto scope = run_timer.scope("time step size");
+        return policy.next_dt(sim, t, next_stop);
+      }();
       const double solve_before = sim.timer().seconds("solve"), guess_before = sim.timer().seconds("warm start");
       const long step = statistics.steps() + 1;
       const bool dump_step = writer && std::find(options.dump_steps.begin(), options.dump_steps.end(), step) != options.dump_steps.end();
-      dt = take_checked_step(sim, health.get(), scene, policy, t, dt, step, dt_retries, solid_error_retakes, checks_timer,
+      dt = take_checked_step(sim, health.get(), scene, policy, t, dt, step, dt_retries, solid_error_retakes, run_timer,
                              [&](int attempt) {
                                if (!dump_step) return;
                                // A StepStats of the attempt counts the unknowns once the system is assembled.
@@ -294,13 +311,17 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
                            last.linear.initial_relative_residual, sim.timer().seconds("solve") - solve_before, sim.timer().seconds("warm start") - guess_before,
                            double(last.contact_rounds), health ? health->energy() : NAN,
                            health ? health->constraint_residual() : NAN, double(last.solid_step_error)});
-      if (pressure_fields) pressure_fields->append(sim.pressure_fields(), dt, statistics.steps(), last.linear.iterations);
+      if (pressure_fields) {
+        auto scope = run_timer.scope("output");
+        pressure_fields->append(sim.pressure_fields(), dt, statistics.steps(), last.linear.iterations);
+      }
       if (dump_step) dump_pressure_system(sim, options.out_dir, std::to_string(step));
       sample(t);
       for (std::size_t c = 1; c < result.metrics.back().size(); ++c)
         if (std::isinf(result.metrics.back()[c]))
           throw NumericalFailure(fmt::format("metric '{}' is infinite at t = {:.4g} s", result.columns[c], t));
       if (policy.reached(t, next_frame)) {
+        auto scope = run_timer.scope("output");
         if (writer && scene.write_frames && (scene.frame_rate > 0 || policy.finished(t))) writer->write_frame(make_frame(sim, t));
         if (writer) {  // the metrics so far, every frame
           writer->write_metrics(result.columns, result.metrics);
@@ -333,9 +354,8 @@ RunResult run(const SceneSpec& scene, const RunOptions& options) {
 
   const double final_volume = fluid_volume(sim);
   const double final_particle_volume = fluid_particle_volume(sim);
-  Json stage_seconds = Json::object();
-  for (const auto& [stage, seconds] : sim.timer().stages()) stage_seconds[stage] = seconds;
-  if (checks_timer.total() > 0) stage_seconds["health checks"] = checks_timer.total();
+  Json stage_seconds = stage_object(sim.timer());
+  for (const auto& [stage, seconds] : run_timer.stages()) stage_seconds[stage] = seconds;
   const long steps = statistics.steps();
   Json summary = {
       {"status", status},
