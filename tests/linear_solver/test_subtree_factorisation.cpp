@@ -47,6 +47,15 @@ SparseMatrix stencil(int n, unsigned seed, bool quasi_definite) {
   return A;
 }
 
+// The cells of an n x n grid in its nested dissection order (the stencil's unknowns).
+std::vector<int> grid_order(int n) {
+  const IVec<2> extent(n, n);
+  const std::vector<int> rank = nested_dissection_rank<2>(GridLayout<2>(IVec<2>::Zero(), extent), extent);
+  std::vector<int> order(n * n);
+  for (int cell = 0; cell < n * n; ++cell) order[rank[cell]] = cell;
+  return order;
+}
+
 struct Cholmod {
   cholmod_common common[2];
   Cholmod() {
@@ -129,10 +138,7 @@ void expect_cholmods_factor_on_one_and_two_threads(cholmod_sparse& view, std::ve
 
 TEST(SubtreeFactorisationTest, SameFactorAsCholmodToRoundOffAndTheSameBitsOnOneAndTwoThreads) {
   const int n = 72;  // 5 184 unknowns
-  const IVec<2> extent(n, n);
-  const std::vector<int> rank = nested_dissection_rank<2>(GridLayout<2>(IVec<2>::Zero(), extent), extent);
-  std::vector<int> order(n * n);
-  for (int cell = 0; cell < n * n; ++cell) order[rank[cell]] = cell;
+  const std::vector<int> order = grid_order(n);
   for (const bool quasi_definite : {false, true}) {
     SCOPED_TRACE(quasi_definite ? "quasi-definite" : "positive definite");
     const SparseMatrix A = stencil(n, 5, quasi_definite);
@@ -158,10 +164,7 @@ TEST(SubtreeFactorisationTest, SameFactorAsCholmodToRoundOffAndTheSameBitsOnOneA
 // with the right schedule in the same workspace is right again.
 TEST(SubtreeFactorisationTest, TheSolveBySubtreesIsCholmodsToRoundOffAndTheSameBitsOnOneAndTwoThreads) {
   const int n = 72;
-  const IVec<2> extent(n, n);
-  const std::vector<int> rank = nested_dissection_rank<2>(GridLayout<2>(IVec<2>::Zero(), extent), extent);
-  std::vector<int> order(n * n);
-  for (int cell = 0; cell < n * n; ++cell) order[rank[cell]] = cell;
+  std::vector<int> order = grid_order(n);
   for (const bool quasi_definite : {false, true}) {
     SCOPED_TRACE(quasi_definite ? "quasi-definite" : "positive definite");
     const SparseMatrix A = stencil(n, 11, quasi_definite);
