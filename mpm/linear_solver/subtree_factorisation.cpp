@@ -246,50 +246,74 @@ bool rows_after_bins(cholmod_sparse* S, cholmod_factor* factor, const SubtreeSch
   return true;
 }
 
-// The forward solve in bin b's columns: y_j /= D(j) and y_i -= L(i, j) y_j (the undivided
-// y_j, as CHOLMOD's LD solve), the rows after the bins' share kept in `carry`. A column's
-// rows in its own subtree are those up to the subtree's root, the others are after the
-// bins. False where a column has an entry in the other bin.
-bool forward_in_bin(const cholmod_factor* L, const SubtreeSchedule& schedule, int b, double* y, double* carry) {
-  const int* start = static_cast<const int*>(L->p);
-  const int* count = static_cast<const int*>(L->nz);
-  const int* row = static_cast<const int*>(L->i);
-  const double* value = static_cast<const double*>(L->x);
-  bool linked = false;
-  for (const auto& [first, end] : schedule.bins[b])
-    for (int j = first; j < end; ++j) {
-      const double y_j = y[j];
-      y[j] = y_j / value[start[j]];
-      for (int p = start[j] + 1, last = start[j] + count[j]; p < last; ++p) {
-        const int i = row[p];
-        if (i < end) {
-          y[i] -= value[p] * y_j;
-        } else {
-          carry[i] -= value[p] * y_j;
-          linked |= schedule.group[i] != SubtreeSchedule::kAfterBins;
-        }
+// The columns of L as the solves read them. Two columns j, j + 1 whose patterns below j + 1
+// are the same (a supernode of two; L's columns are sorted) are swept together, as
+// cholmod_solve does, so that each row of y is read and written once for both.
+struct SolveColumns {
+  const int* start;
+  const int* count;
+  const int* row;
+  const double* value;
+  explicit SolveColumns(const cholmod_factor* L)
+      : start(static_cast<const int*>(L->p)), count(static_cast<const int*>(L->nz)), row(static_cast<const int*>(L->i)),
+        value(static_cast<const double*>(L->x)) {}
+  bool pair_below(int j) const { return count[j] >= 4 && count[j] == count[j + 1] + 1 && row[start[j] + 1] == j + 1; }
+};
+
+// The forward solve in the columns of `ranges` (each a subtree's rows, or rows after the
+// bins): y_j /= D(j) and target(i) -= L(i, j) y_j with the undivided y_j (CHOLMOD's LD
+// solve). `target(i, end)` is the entry that row i of a column in the range [.., end) updates.
+template <class Target>
+void forward(const SolveColumns& L, const std::vector<std::pair<int, int>>& ranges, double* y, Target target) {
+  for (const auto& [first, end] : ranges)
+    for (int j = first; j < end;) {
+      const int p = L.start[j], last = p + L.count[j];
+      if (j + 1 < end && L.pair_below(j)) {
+        const int q = L.start[j + 1];
+        const double y_0 = y[j], y_1 = y[j + 1] - L.value[p + 1] * y_0;
+        y[j] = y_0 / L.value[p];
+        y[j + 1] = y_1 / L.value[q];
+        for (int e = p + 2, f = q + 1; e < last; ++e, ++f) target(L.row[e], end) -= L.value[e] * y_0 + L.value[f] * y_1;
+        j += 2;
+      } else {
+        const double y_j = y[j];
+        y[j] = y_j / L.value[p];
+        for (int e = p + 1; e < last; ++e) target(L.row[e], end) -= L.value[e] * y_j;
+        ++j;
       }
     }
-  return !linked;
 }
 
 // The backward solve, L^T x = y in place, in the columns of `ranges`, last row first. Each
-// column's sum in four parts (one chain of dependent additions would bound it by the
+// column's sum in two parts (one chain of dependent additions would bound it by the
 // adder's latency).
-void backward(const cholmod_factor* L, const std::vector<std::pair<int, int>>& ranges, double* y) {
-  const int* start = static_cast<const int*>(L->p);
-  const int* count = static_cast<const int*>(L->nz);
-  const int* row = static_cast<const int*>(L->i);
-  const double* value = static_cast<const double*>(L->x);
+void backward(const SolveColumns& L, const std::vector<std::pair<int, int>>& ranges, double* y) {
   for (auto range = ranges.rbegin(); range != ranges.rend(); ++range)
-    for (int j = range->second - 1; j >= range->first; --j) {
-      double sum[4] = {0, 0, 0, 0};
-      int p = start[j] + 1;
-      const int last = start[j] + count[j];
-      for (; p + 4 <= last; p += 4)
-        for (int q = 0; q < 4; ++q) sum[q] += value[p + q] * y[row[p + q]];
-      for (int q = 0; p < last; ++p, ++q) sum[q] += value[p] * y[row[p]];
-      y[j] -= (sum[0] + sum[1]) + (sum[2] + sum[3]);
+    for (int j = range->second - 1; j >= range->first;) {
+      const int p = L.start[j], last = p + L.count[j];
+      if (j - 1 >= range->first && L.pair_below(j - 1)) {
+        const int q = L.start[j - 1];
+        double sum_0[2] = {0, 0}, sum_1[2] = {0, 0};
+        int e = p + 1, f = q + 2;
+        for (; e + 2 <= last; e += 2, f += 2)
+          for (int k = 0; k < 2; ++k) {
+            const double x_i = y[L.row[e + k]];
+            sum_0[k] += L.value[e + k] * x_i, sum_1[k] += L.value[f + k] * x_i;
+          }
+        if (e < last) sum_0[0] += L.value[e] * y[L.row[e]], sum_1[0] += L.value[f] * y[L.row[e]];
+        const double x_j = y[j] - (sum_0[0] + sum_0[1]);
+        y[j] = x_j;
+        y[j - 1] = y[j - 1] - (sum_1[0] + sum_1[1]) - L.value[q + 1] * x_j;
+        j -= 2;
+      } else {
+        double sum[4] = {0, 0, 0, 0};
+        int e = p + 1;
+        for (; e + 4 <= last; e += 4)
+          for (int k = 0; k < 4; ++k) sum[k] += L.value[e + k] * y[L.row[e + k]];
+        for (int k = 0; e < last; ++e, ++k) sum[k] += L.value[e] * y[L.row[e]];
+        y[j] -= (sum[0] + sum[1]) + (sum[2] + sum[3]);
+        --j;
+      }
     }
 }
 
@@ -299,20 +323,24 @@ bool solve_by_subtrees(const cholmod_factor* L, const SubtreeSchedule& schedule,
                        SubtreeSolveWorkspace& workspace) {
   const int n = int(L->n);
   const int* perm = static_cast<const int*>(L->Perm);
-  const int* start = static_cast<const int*>(L->p);
-  const int* count = static_cast<const int*>(L->nz);
-  const int* row = static_cast<const int*>(L->i);
-  const double* value = static_cast<const double*>(L->x);
+  const SolveColumns columns(L);
   std::vector<double>& y = workspace.y;
   auto& carry = workspace.carry;
   y.resize(n);
   for (auto& c : carry)
     if (int(c.size()) != n) c.assign(n, 0.0);  // kept zero between solves
   for (int k = 0; k < n; ++k) y[k] = b[perm[k]];
-  bool unlinked[2] = {true, true};
+  // A bin's column updates rows of its own subtree (below the range's end) and rows after
+  // the bins, whose share goes to the bin's carry; a row of the other bin links the bins.
+  bool linked[2] = {false, false};
 #pragma omp parallel for num_threads(threads) schedule(static, 1)
-  for (int bin = 0; bin < 2; ++bin) unlinked[bin] = forward_in_bin(L, schedule, bin, y.data(), carry[bin].data());
-  if (!unlinked[0] || !unlinked[1]) {
+  for (int bin = 0; bin < 2; ++bin)
+    forward(columns, schedule.bins[bin], y.data(), [&, bin](int i, int end) -> double& {
+      if (i < end) return y[i];
+      linked[bin] |= schedule.group[i] != SubtreeSchedule::kAfterBins;
+      return carry[bin][i];
+    });
+  if (linked[0] || linked[1]) {
     for (auto& c : carry) std::fill(c.begin(), c.end(), 0.0);
     return false;
   }
@@ -321,15 +349,10 @@ bool solve_by_subtrees(const cholmod_factor* L, const SubtreeSchedule& schedule,
       y[k] = y[k] + carry[0][k] + carry[1][k];
       carry[0][k] = carry[1][k] = 0;
     }
-  for (const auto& [first, end] : schedule.after)
-    for (int j = first; j < end; ++j) {
-      const double y_j = y[j];
-      y[j] = y_j / value[start[j]];
-      for (int p = start[j] + 1, last = start[j] + count[j]; p < last; ++p) y[row[p]] -= value[p] * y_j;
-    }
-  backward(L, schedule.after, y.data());
+  forward(columns, schedule.after, y.data(), [&](int i, int) -> double& { return y[i]; });
+  backward(columns, schedule.after, y.data());
 #pragma omp parallel for num_threads(threads) schedule(static, 1)
-  for (int bin = 0; bin < 2; ++bin) backward(L, schedule.bins[bin], y.data());
+  for (int bin = 0; bin < 2; ++bin) backward(columns, schedule.bins[bin], y.data());
   for (int k = 0; k < n; ++k) x[perm[k]] = y[k];
   return true;
 }
