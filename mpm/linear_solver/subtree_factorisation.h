@@ -70,8 +70,8 @@ struct SubtreeSolveWorkspace {
 // threads (each bin's subtractions from the rows after kept apart and added, bin 0's first,
 // before the rows after are solved) and the backward solve of the bins too, after the rows
 // after; the same bits on one thread. Differs from cholmod_solve at round-off (the order of
-// the sums). Returns false, with x untouched, where an entry of L links the
-// two bins (a pattern the schedule was not planned for).
+// the sums). Returns false, with x untouched, where an entry of L links the two bins (a
+// pattern the schedule was not planned for).
 bool solve_by_subtrees(const cholmod_factor* L, const SubtreeSchedule& schedule, int threads, const double* b, double* x,
                        SubtreeSolveWorkspace& workspace);
 
