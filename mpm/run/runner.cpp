@@ -112,8 +112,10 @@ double take_checked_step(Simulation<dim>& sim, HealthChecks<dim>* health, const 
     std::string problem;
     try {
       sim.step(dt);
-      auto scope = timer.scope("health checks");
-      if (health) problem = health->violation(sim);
+      if (health) {
+        auto scope = timer.scope("health checks");
+        problem = health->violation(sim);
+      }
     } catch (const NumericalFailure& failure) {
       problem = failure.what();
     }
