@@ -17,8 +17,8 @@ def _levels(text: str) -> list[int]:
         levels = sorted({int(x) for x in text.split(",") if x.strip()})
     except ValueError:
         raise argparse.ArgumentTypeError(f"--levels wants integers like 1,2,3, not '{text}'")
-    if not levels or levels[0] < 1:
-        raise argparse.ArgumentTypeError("--levels: levels start at 1")
+    if not levels or levels[0] < 0:
+        raise argparse.ArgumentTypeError("--levels: levels start at 0 (IQ-MPM only) or 1")
     return levels
 
 
@@ -39,7 +39,8 @@ def build_parser() -> argparse.ArgumentParser:
     v = sub.add_parser("validate", help="run all benchmarks (IQ-MPM + OpenFOAM), compare, report")
     v.add_argument("--benchmark", action="append", default=[], metavar="NAME",
                    help="scene stem or folder name (repeatable; default: all)")
-    v.add_argument("--levels", type=_levels, default=[1], help="e.g. 1,2,3 (default 1)")
+    v.add_argument("--levels", type=_levels, default=[1],
+                   help="e.g. 1,2,3 (default 1); level 0 (IQ-MPM only) is twice level 1's cell size")
     v.add_argument("--out", type=Path, default=REPO_ROOT / "report", help="report folder")
     v.add_argument("--jobs", type=int, default=None,
                    help="child runs at a time (default: the number of cores)")

@@ -59,7 +59,8 @@ def richardson(h: np.ndarray, values: np.ndarray) -> RichardsonResult:
 
     With a constant refinement ratio r: p = ln((f1 - f2) / (f2 - f3)) / ln r and
     f* = f3 + (f3 - f2) / (r^p - 1) (f1 coarsest). Other ratios: p solved numerically.
-    Raises CompareError when convergence is not monotone (the ratio of differences <= 0).
+    Raises CompareError when convergence is not monotone (the ratio of differences <= 0) or
+    the differences do not shrink (no positive order).
     """
     h, f = _sorted_coarse_first(h, values)
     if len(h) < 3:
@@ -80,6 +81,9 @@ def richardson(h: np.ndarray, values: np.ndarray) -> RichardsonResult:
     r12, r23 = h1 / h2, h2 / h3
     if math.isclose(r12, r23, rel_tol=1e-9):
         p = math.log(ratio) / math.log(r23)
+        if not p >= 1e-3:  # equal differences (a quantised measure) or growing ones, as below
+            raise CompareError(f"Richardson extrapolation: the differences do not shrink under "
+                               f"refinement (values {f1:g}, {f2:g}, {f3:g})")
     else:
         def residual(p: float) -> float:
             return (h1**p - h2**p) / (h2**p - h3**p) - ratio

@@ -1,7 +1,8 @@
 """``compare validate``: run every benchmark with IQ-MPM and OpenFOAM, compare, report.
 
-Stages per benchmark: IQ-MPM at each level (level L: dx = default_dx / 2^(L-1)), the
-OpenFOAM case at each level (cached under foam_runs/ by a hash of its inputs), then the
+Stages per benchmark: IQ-MPM at each level (level L: dx = default_dx / 2^(L-1); level 0,
+twice level 1's cell size, extends the run time against error curve to larger errors), the
+OpenFOAM case at each level from 1 (cached under foam_runs/ by a hash of its inputs), then the
 comparison, the checks of the benchmark's expected.json and the report. Child processes
 run ``--jobs`` at a time, the longest first; progress is printed as one line per stage with
 the elapsed time, plus a heartbeat line while a child runs; the run ends with a summary:
@@ -173,7 +174,7 @@ def run_iqmpm(s: Settings, scene: Scene, level: int, default_dx: float | None,
     for kv in s.sets:
         args += ["--set", kv]
     dx = None
-    if level > 1:
+    if level != 1:
         if default_dx is None:
             return RunOutcome(None, "default dx unknown (no 'dx' in the scene and no level-1 "
                                     "summary)", True)
@@ -356,16 +357,20 @@ def validate(s: Settings, progress: Progress | None = None) -> int:
             except (OSError, json.JSONDecodeError):
                 scene_dx = None
             levels = sorted(set(s.levels))
-            first = Job(estimate_seconds(s, bench, scene.name, levels[0]), len(jobs),
-                        lambda scene=scene, level=levels[0], dx=scene_dx: pool.submit(
+            # Level 1 first where asked: without a dx in the scene, the other levels take
+            # it from its summary.
+            first_level = 1 if 1 in levels else levels[0]
+            first = Job(estimate_seconds(s, bench, scene.name, first_level), len(jobs),
+                        lambda scene=scene, level=first_level, dx=scene_dx: pool.submit(
                             run_iqmpm, s, scene, level, dx, progress),
-                        lambda f, plan=plan, lv=levels[0]: plan.ours.__setitem__(lv, f))
+                        lambda f, plan=plan, lv=first_level: plan.ours.__setitem__(lv, f))
             jobs.append(first)
-            for level in levels[1:]:
-                # without a dx in the scene, a later level takes it from the first's summary
+            for level in levels:
+                if level == first_level:
+                    continue
                 jobs.append(Job(estimate_seconds(s, bench, scene.name, level), len(jobs),
                                 lambda scene=scene, level=level, dx=scene_dx, plan=plan,
-                                first_level=levels[0]: pool.submit(
+                                first_level=first_level: pool.submit(
                                     _later_level, s, scene, level, dx, plan.ours[first_level],
                                     first_level, progress),
                                 lambda f, plan=plan, lv=level: plan.ours.__setitem__(lv, f),
@@ -380,6 +385,10 @@ def validate(s: Settings, progress: Progress | None = None) -> int:
                 progress.line(scene.name, "OpenFOAM", plan.foam_notes[-1])
             else:
                 for level in levels:
+                    if level == 0:
+                        plan.foam_notes.append("L0 is IQ-MPM's only (the OpenFOAM cases' "
+                                               "meshes start at level 1)")
+                        continue
                     if quick and not bench.foam_quick and foam_cached_run(s, case, level) is None:
                         plan.foam_notes.append(
                             f"L{level} not run in the quick suite (about "

@@ -46,6 +46,16 @@ def test_richardson_rejects_oscillation():
         richardson(np.array([0.4, 0.2, 0.1]), np.array([1.0, 1.2, 1.1]))
 
 
+def test_richardson_rejects_differences_that_do_not_shrink():
+    # Equal differences (the dam break's region volume counts cells: its peaks at a/32,
+    # a/64, a/128 differ by the same amount) give order 0 and no limit; growing ones a
+    # negative order.
+    h = np.array([0.4, 0.2, 0.1])
+    for values in ([1.0, 0.9, 0.8], [1.0, 0.9, 0.7]):
+        with pytest.raises(CompareError, match="do not shrink"):
+            richardson(h, np.array(values))
+
+
 def test_wall_time_at_matched_error_is_loglog_interpolated():
     curve = [CostPoint("interFoam", 1, 1.0, 0.1), CostPoint("interFoam", 2, 10.0, 0.01)]
     assert time_at_error(curve, 10**-1.5) == pytest.approx(10**0.5)

@@ -5,6 +5,8 @@ import os
 import stat
 from pathlib import Path
 
+import pytest
+
 from compare.cli import main
 
 HERE = Path(__file__).resolve().parent
@@ -106,6 +108,33 @@ def test_validate_runs_compares_reports_and_caches(tmp_path, capsys, monkeypatch
     (repo / "foam_cases" / "hydrostatic" / "system" / "controlDict").write_text("endTime 3;\n")
     assert _validate(repo, tmp_path, "--benchmark", "hydrostatic_2d") == 0
     assert len(calls.read_text().splitlines()) == 3
+
+
+def test_level_zero_is_iqmpm_at_twice_the_cell_size_and_extends_the_cost_curve(tmp_path, capsys,
+                                                                              monkeypatch):
+    # Level 0 gives the run time against error curve a coarser point (issue 21 item 6): IQ-MPM
+    # at twice level 1's dx; OpenFOAM's meshes start at level 1, so it is not asked for one.
+    calls = tmp_path / "calls.txt"
+    monkeypatch.setenv("FAKE_FOAM_CALLS", str(calls))
+    repo = _repo(tmp_path)
+    assert _validate(repo, tmp_path, "--levels", "0,1,2", "--benchmark", "hydrostatic_2d") == 0
+    out = capsys.readouterr().out
+    assert "hydrostatic_2d | IQ-MPM level 0 | done in" in out
+    record = json.loads((tmp_path / "runs" / "hydrostatic_2d" / "iqmpm" / "level0" /
+                         "compare_run.json").read_text())
+    assert record["dx"] == 0.08 and "dx=0.08" in record["command"]
+    assert sorted(line.split("--level ")[1].split()[0] for line in calls.read_text().splitlines()) == ["1", "2"]
+    text = (tmp_path / "report" / "hydrostatic_2d" / "report.md").read_text()
+    assert "| IQ-MPM | `wall_force_x` | rho g H^2/2 | 0,1,2 |" in text
+    assert "L0 is IQ-MPM's only" in (tmp_path / "report" / "index.md").read_text() + text
+
+
+def test_levels_below_zero_are_a_clear_error(tmp_path, capsys):
+    repo = _repo(tmp_path)
+    with pytest.raises(SystemExit) as exit_info:
+        _validate(repo, tmp_path, "--levels=-1,1")
+    assert exit_info.value.code == 2
+    assert "levels start at 0" in capsys.readouterr().err
 
 
 def test_validate_without_solver_reports_failure(tmp_path, capsys, monkeypatch):
