@@ -40,7 +40,7 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--benchmark", action="append", default=[], metavar="NAME",
                    help="scene stem or folder name (repeatable; default: all)")
     v.add_argument("--levels", type=_levels, default=[1],
-                   help="e.g. 1,2,3 (default 1); level 0 (IQ-MPM only) is twice level 1's cell size")
+                   help="e.g. 1,2,3 (default 1); level 0 (IQ-MPM only): twice level 1's dx")
     v.add_argument("--out", type=Path, default=REPO_ROOT / "report", help="report folder")
     v.add_argument("--jobs", type=int, default=None,
                    help="child runs at a time (default: the number of cores)")

@@ -123,7 +123,8 @@ def test_level_zero_is_iqmpm_at_twice_the_cell_size_and_extends_the_cost_curve(t
     record = json.loads((tmp_path / "runs" / "hydrostatic_2d" / "iqmpm" / "level0" /
                          "compare_run.json").read_text())
     assert record["dx"] == 0.08 and "dx=0.08" in record["command"]
-    assert sorted(line.split("--level ")[1].split()[0] for line in calls.read_text().splitlines()) == ["1", "2"]
+    foam_levels = [line.split("--level ")[1].split()[0] for line in calls.read_text().splitlines()]
+    assert sorted(foam_levels) == ["1", "2"]
     text = (tmp_path / "report" / "hydrostatic_2d" / "report.md").read_text()
     assert "| IQ-MPM | `wall_force_x` | rho g H^2/2 | 0,1,2 |" in text
     assert "L0 is IQ-MPM's only" in (tmp_path / "report" / "index.md").read_text() + text
