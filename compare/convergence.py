@@ -54,6 +54,9 @@ class RichardsonResult:
     errors: tuple[float, ...]  # value - extrapolated, per level
 
 
+LEAST_ORDER = 1e-3  # a smaller observed order is no convergence: nothing to extrapolate
+
+
 def richardson(h: np.ndarray, values: np.ndarray) -> RichardsonResult:
     """Richardson extrapolation from the three finest levels (f = f* + C h^p).
 
@@ -81,7 +84,7 @@ def richardson(h: np.ndarray, values: np.ndarray) -> RichardsonResult:
     r12, r23 = h1 / h2, h2 / h3
     if math.isclose(r12, r23, rel_tol=1e-9):
         p = math.log(ratio) / math.log(r23)
-        if not p >= 1e-3:  # equal differences (a quantised measure) or growing ones, as below
+        if not p >= LEAST_ORDER:  # equal differences (a quantised measure) or growing ones
             raise CompareError(f"Richardson extrapolation: the differences do not shrink under "
                                f"refinement (values {f1:g}, {f2:g}, {f3:g})")
     else:
@@ -89,7 +92,7 @@ def richardson(h: np.ndarray, values: np.ndarray) -> RichardsonResult:
             return (h1**p - h2**p) / (h2**p - h3**p) - ratio
 
         try:
-            p = brentq(residual, 1e-3, 20.0)
+            p = brentq(residual, LEAST_ORDER, 20.0)
         except ValueError:
             raise CompareError(
                 "Richardson extrapolation: no order in (0, 20] fits these values"
