@@ -51,13 +51,30 @@ namespace iqmpm {
 using SparseMatrix = Eigen::SparseMatrix<Real, Eigen::ColMajor, int>;
 using SparseRowMatrix = Eigen::SparseMatrix<Real, Eigen::RowMajor, int>;
 
-// m(c, c) += value for each (c, value) of `diagonal` (sorted by c), in one pass over m:
-// coeffRef on a compressed matrix inserts a missing entry at a time and moves the rest each
-// time (a quarter of an obstacle dam break's run, whose clamped corners leave many rows
-// without a diagonal). The sum adds to stored entries and creates the missing ones, as
-// coeffRef does, so the matrix is the same.
+// m(c, c) += value for each (c, value) of `diagonal` (sorted by c, each c once). Where every
+// one of them is stored (the usual case: the solid's compliance on its ghost rows) they are
+// added in place; otherwise in one pass over m: coeffRef on a compressed matrix inserts a
+// missing entry at a time and moves the rest each time (a quarter of an obstacle dam
+// break's run, whose clamped corners leave many rows without a diagonal). The sum adds to
+// stored entries and creates the missing ones, as coeffRef does; either way the matrix is
+// the same, to the bit.
 inline void add_to_diagonal(SparseMatrix& m, const std::vector<std::pair<int, Real>>& diagonal) {
   if (diagonal.empty()) return;
+  if (m.isCompressed()) {
+    std::vector<Real*> stored;
+    stored.reserve(diagonal.size());
+    for (const auto& [c, value] : diagonal) {
+      const int* begin = m.innerIndexPtr() + m.outerIndexPtr()[c];
+      const int* end = m.innerIndexPtr() + m.outerIndexPtr()[c + 1];
+      const int* at = std::lower_bound(begin, end, c);  // a column's row indices are sorted
+      if (at == end || *at != c) break;
+      stored.push_back(m.valuePtr() + (at - m.innerIndexPtr()));
+    }
+    if (stored.size() == diagonal.size()) {
+      for (std::size_t k = 0; k < stored.size(); ++k) *stored[k] += diagonal[k].second;
+      return;
+    }
+  }
   SparseMatrix added(m.rows(), m.cols());
   added.reserve(Eigen::VectorXi::Constant(m.cols(), 1));
   for (const auto& [c, value] : diagonal) added.insert(c, c) = value;

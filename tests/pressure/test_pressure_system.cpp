@@ -157,11 +157,10 @@ TYPED_TEST(PressureSystemTest, TransferredInertiaBalancesTheParticlesMomentumWit
     }
 }
 
-// fluid.inertia = auto resolves to transfer in a scene without solids and to quadrature
-// in one with them (docs/method.md#fluid-inertia).
 // add_to_diagonal builds the matrix coeffRef would, entry for entry and in the same
 // pattern: adding to stored diagonals, to stored zeros, and creating missing ones, on a
-// random sparse matrix with every kind.
+// random sparse matrix with every kind; and when every listed diagonal is stored (the
+// in-place path), the same again.
 TEST(AddToDiagonalTest, EqualsCoeffRefEntryForEntry) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<Real> value(-1, 1);
@@ -169,24 +168,30 @@ TEST(AddToDiagonalTest, EqualsCoeffRefEntryForEntry) {
   std::vector<Eigen::Triplet<Real>> entries;
   for (int k = 0; k < 120; ++k) entries.emplace_back(index(rng), index(rng), value(rng));
   for (int c = 0; c < 40; c += 7) entries.emplace_back(c, c, 0.0);  // stored zeros on the diagonal
-  SparseMatrix m(40, 40);
-  m.setFromTriplets(entries.begin(), entries.end());
-  m.makeCompressed();
-  std::vector<std::pair<int, Real>> diagonal;
-  for (int c = 0; c < 40; c += 3) diagonal.emplace_back(c, value(rng));
-  SparseMatrix expected = m;
-  for (const auto& [c, v] : diagonal) expected.coeffRef(c, c) += v;
-  expected.makeCompressed();
-  add_to_diagonal(m, diagonal);
-  m.makeCompressed();
-  ASSERT_EQ(m.nonZeros(), expected.nonZeros());
-  for (int c = 0; c < 40; ++c) {
-    SparseMatrix::InnerIterator a(m, c), b(expected, c);
-    for (; a && b; ++a, ++b) {
-      EXPECT_EQ(a.row(), b.row());
-      EXPECT_EQ(a.value(), b.value()) << "(" << a.row() << ", " << c << ")";
+  SparseMatrix start(40, 40);
+  start.setFromTriplets(entries.begin(), entries.end());
+  start.makeCompressed();
+  for (int stride : {3, 7}) {  // every third column: some diagonals missing; every seventh: all stored
+    SparseMatrix m = start;
+    std::vector<std::pair<int, Real>> diagonal;
+    for (int c = 0; c < 40; c += stride) diagonal.emplace_back(c, value(rng));
+    SparseMatrix expected = m;
+    for (const auto& [c, v] : diagonal) expected.coeffRef(c, c) += v;
+    expected.makeCompressed();
+    add_to_diagonal(m, diagonal);
+    m.makeCompressed();
+    ASSERT_EQ(m.nonZeros(), expected.nonZeros()) << "stride " << stride;
+    if (stride == 7) {
+      EXPECT_EQ(m.nonZeros(), start.nonZeros());
     }
-    EXPECT_FALSE(a || b) << "column " << c;
+    for (int c = 0; c < 40; ++c) {
+      SparseMatrix::InnerIterator a(m, c), b(expected, c);
+      for (; a && b; ++a, ++b) {
+        EXPECT_EQ(a.row(), b.row());
+        EXPECT_EQ(a.value(), b.value()) << "(" << a.row() << ", " << c << "), stride " << stride;
+      }
+      EXPECT_FALSE(a || b) << "column " << c << ", stride " << stride;
+    }
   }
 }
 
@@ -232,6 +237,8 @@ TEST(WeightedGramTest, EqualsTheSparseProductAndDoesNotDependOnTheThreadCount) {
   EXPECT_EQ(joined, one.nonZeros());
 }
 
+// fluid.inertia = auto resolves to transfer in a scene without solids and to quadrature
+// in one with them (docs/method.md#fluid-inertia).
 TEST(FluidInertiaTest, AutoTakesTheTransferredMassOnlyWithoutSolids) {
   EXPECT_TRUE(resolve_step_options(load_scene(testing::scene_path("dam_break/dam_break.json"), {})).inertia_from_transfer);
   EXPECT_FALSE(resolve_step_options(load_scene(testing::scene_path("floating_block/floating_block.json"), {})).inertia_from_transfer);
