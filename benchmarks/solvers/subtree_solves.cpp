@@ -7,15 +7,19 @@
 // Built with the solver (CMakeLists.txt); run from the repository root:
 //   build/subtree_solves DUMP_DIR:STEP [DUMP_DIR:STEP ...]
 // Prints a Markdown table: unknowns, the plan's predicted share of one thread's work, the
-// fastest of 7 factorisations and the fastest and median of 60 solves of each kind (ms, the
-// kinds alternating), and the largest difference of the solves' solutions.
+// median of 15 constructions of S = triu(P A P') (CHOLMOD's transposes, the solver's own on
+// one and two threads, checked equal), the fastest of 7 factorisations and the fastest and
+// median of 60 solves of each kind (ms, the kinds alternating), and the largest difference
+// of the solves' solutions.
 #include <Eigen/CholmodSupport>
 #include <Eigen/SparseCore>
+#include <omp.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <functional>
 #include <random>
 #include <string>
@@ -67,6 +71,39 @@ void measure(const Dump& dump) {
   const double one_thread = schedule.bin_work[0] + schedule.bin_work[1] + schedule.after_work;
   const double predicted = (std::max(schedule.bin_work[0], schedule.bin_work[1]) + schedule.after_work) / one_thread;
 
+  // S itself: CHOLMOD's two permuting transposes against permuted_upper_triangle (the
+  // solver's) on one and two threads, which must give the same arrays.
+  const Eigen::SparseMatrix<double>& full = dump.matrix;
+  const int* perm = static_cast<const int*>(L->Perm);
+  std::vector<int> inverse(dump.n);
+  for (int k = 0; k < dump.n; ++k) inverse[perm[k]] = k;
+  std::vector<double> s_cholmod, s_one, s_two;
+  for (int round = 0; round < 15; ++round) {
+    s_cholmod.push_back(milliseconds_of([&] {
+      cholmod_sparse* l = cholmod_ptranspose(&A, 2, static_cast<int*>(L->Perm), nullptr, 0, &common[0]);
+      cholmod_sparse* u = cholmod_ptranspose(l, 2, nullptr, nullptr, 0, &common[0]);
+      cholmod_free_sparse(&l, &common[0]);
+      cholmod_free_sparse(&u, &common[0]);
+    }));
+    for (int threads : {1, 2}) {
+      omp_set_num_threads(threads);
+      cholmod_sparse* ours = nullptr;
+      (threads == 1 ? s_one : s_two).push_back(milliseconds_of([&] {
+        ours = iqmpm::permuted_upper_triangle(dump.n, full.outerIndexPtr(), full.innerIndexPtr(), full.valuePtr(), perm,
+                                              inverse.data(), &common[0]);
+      }));
+      auto same = [](const void* mine, const void* theirs, std::size_t bytes) {
+        return std::memcmp(mine, theirs, bytes) == 0;
+      };
+      const int nonzeros = static_cast<const int*>(S->p)[dump.n];
+      if (!ours || static_cast<const int*>(ours->p)[dump.n] != nonzeros || !same(ours->i, S->i, nonzeros * sizeof(int)) ||
+          !same(ours->x, S->x, nonzeros * sizeof(double)))
+        fail("permuted_upper_triangle differs from CHOLMOD's transposes on " + dump.name);
+      cholmod_free_sparse(&ours, &common[0]);
+    }
+    omp_set_num_threads(2);
+  }
+
   std::vector<double> factor_cholmod, factor_one, factor_two;
   for (int round = 0; round < 7; ++round) {
     factor_cholmod.push_back(milliseconds_of([&] { cholmod_factorize(&A, reference, &common[0]); }));
@@ -98,10 +135,10 @@ void measure(const Dump& dump) {
     if (x_one != x_two) fail("one and two threads differ on " + dump.name);
     cholmod_free_dense(&x, &common[0]);
   }
-  std::printf("| %s | %d | %.2f | %.1f | %.1f | %.1f | %.2f / %.2f | %.2f / %.2f | %.2f / %.2f | %.1e |\n", dump.name.c_str(),
-              dump.n, predicted, fastest(factor_cholmod), fastest(factor_one), fastest(factor_two), fastest(solve_cholmod),
-              median(solve_cholmod), fastest(solve_one), median(solve_one), fastest(solve_two), median(solve_two),
-              difference / size);
+  std::printf("| %s | %d | %.2f | %.2f / %.2f / %.2f | %.1f | %.1f | %.1f | %.2f / %.2f | %.2f / %.2f | %.2f / %.2f | %.1e |\n",
+              dump.name.c_str(), dump.n, predicted, median(s_cholmod), median(s_one), median(s_two), fastest(factor_cholmod),
+              fastest(factor_one), fastest(factor_two), fastest(solve_cholmod), median(solve_cholmod), fastest(solve_one),
+              median(solve_one), fastest(solve_two), median(solve_two), difference / size);
   cholmod_free_sparse(&lower, &common[0]);
   cholmod_free_sparse(&S, &common[0]);
   cholmod_free_factor(&L, &common[0]);
@@ -115,8 +152,9 @@ int main(int argc, char** argv) {
   if (argc < 2) fail("usage: subtree_solves DUMP_DIR:STEP [DUMP_DIR:STEP ...]");
   std::vector<Dump> dumps;  // all read first: a missing file stops before any output
   for (int k = 1; k < argc; ++k) dumps.push_back(dumped::read_dump(argv[k], dumped::Ordering::cells));
-  std::printf("| matrix | unknowns | predicted (of one thread) | factorise: cholmod (ms) | subtrees, 1 thread | 2 threads | "
+  std::printf("| matrix | unknowns | predicted (of one thread) | S = triu(P A P'): CHOLMOD's transposes / ours on 1 / 2 "
+              "threads (median, ms) | factorise: cholmod (ms) | subtrees, 1 thread | 2 threads | "
               "solve: cholmod_solve (fastest / median, ms) | subtrees, 1 thread | 2 threads | largest difference / |x| |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Dump& dump : dumps) measure(dump);
 }

@@ -357,6 +357,48 @@ bool solve_by_subtrees(const cholmod_factor* L, const SubtreeSchedule& schedule,
   return true;
 }
 
+cholmod_sparse* permuted_upper_triangle(int n, const int* column_start, const int* row, const double* value,
+                                        const int* perm, const int* inverse, cholmod_common* common) {
+  // A's upper-triangle value of the pair (i, j) of column j's entry e: its own where i <= j,
+  // else the stored (j, i) of column i (A's values need not be symmetric to the bit).
+  auto upper_value = [&](int e, int j) {
+    const int i = row[e];
+    if (i <= j) return value[e];
+    const int* at = std::lower_bound(row + column_start[i], row + column_start[i + 1], j);
+    return value[at - row];
+  };
+  std::vector<int> start(n + 1, 0);
+#pragma omp parallel for schedule(dynamic, 4096)
+  for (int k = 0; k < n; ++k) {
+    const int j = perm[k];
+    int count = 0;
+    for (int e = column_start[j]; e < column_start[j + 1]; ++e) count += inverse[row[e]] <= k;
+    start[k + 1] = count;
+  }
+  for (int k = 0; k < n; ++k) start[k + 1] += start[k];
+  cholmod_sparse* S = cholmod_allocate_sparse(n, n, start[n], 1, 1, 1, CHOLMOD_REAL, common);
+  if (!S) return nullptr;
+  int* S_start = static_cast<int*>(S->p);
+  int* S_row = static_cast<int*>(S->i);
+  double* S_value = static_cast<double*>(S->x);
+  std::copy(start.begin(), start.end(), S_start);
+#pragma omp parallel for schedule(dynamic, 4096)
+  for (int k = 0; k < n; ++k) {
+    const int j = perm[k];
+    int q = start[k];
+    for (int e = column_start[j]; e < column_start[j + 1]; ++e) {
+      const int new_row = inverse[row[e]];
+      if (new_row > k) continue;
+      const double v = upper_value(e, j);
+      int at = q++;  // insertion by row: a column holds a handful of entries
+      for (; at > start[k] && S_row[at - 1] > new_row; --at) S_row[at] = S_row[at - 1], S_value[at] = S_value[at - 1];
+      S_row[at] = new_row;
+      S_value[at] = v;
+    }
+  }
+  return S;
+}
+
 bool factorise_by_subtrees(cholmod_sparse* S, cholmod_factor* L, const SubtreeSchedule& schedule, int threads,
                            cholmod_common* first, cholmod_common* second) {
   double beta[2] = {0, 0};

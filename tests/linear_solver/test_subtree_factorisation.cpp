@@ -12,6 +12,7 @@
 #include <vector>
 
 #include <cholmod.h>
+#include <omp.h>
 #include <gtest/gtest.h>
 
 #include "grid/nested_dissection.h"
@@ -153,6 +154,53 @@ TEST(SubtreeFactorisationTest, SameFactorAsCholmodToRoundOffAndTheSameBitsOnOneA
 
     expect_cholmods_factor_on_one_and_two_threads(view, order, reference.S, reference.factor, schedule, cholmod,
                                                   quasi_definite ? n : 0);
+  }
+}
+
+// permuted_upper_triangle builds S = triu(P A P') with the arrays of cholmod_factorize's two
+// permuting transposes, to the bit, on one and two threads: on the stencil with its lower
+// triangle nudged by a relative 1e-12 (A's values need not be symmetric to the bit, and S
+// takes the upper ones), in the nested dissection order and in a random one.
+TEST(SubtreeFactorisationTest, PermutedUpperTriangleIsCholmodsTransposesToTheBit) {
+  const int n = 40;
+  SparseMatrix nudged = stencil(n, 7, false);
+  for (int c = 0; c < nudged.outerSize(); ++c)
+    for (SparseMatrix::InnerIterator it(nudged, c); it; ++it)
+      if (it.row() > c) it.valueRef() *= 1 + 1e-12;
+  const SparseMatrix& A = nudged;
+  const int threads_before = omp_get_max_threads();
+  std::vector<int> shuffled(n * n);
+  std::iota(shuffled.begin(), shuffled.end(), 0);
+  std::shuffle(shuffled.begin(), shuffled.end(), std::mt19937(3));
+  for (const std::vector<int>& order : {grid_order(n), shuffled}) {
+    Cholmod cholmod;
+    cholmod_common* common = &cholmod.common[0];
+    cholmod_sparse view = Eigen::viewAsCholmod(A.selfadjointView<Eigen::Upper>());
+    const ReferenceFactor reference(view, order, common);
+    ASSERT_NE(reference.S, nullptr);
+    const int* perm = static_cast<const int*>(reference.factor->Perm);
+    std::vector<int> inverse(n * n);
+    for (int k = 0; k < n * n; ++k) inverse[perm[k]] = k;
+    const int* Rp = static_cast<const int*>(reference.S->p);
+    const int* Ri = static_cast<const int*>(reference.S->i);
+    const double* Rx = static_cast<const double*>(reference.S->x);
+    for (int threads : {1, 2}) {
+      SCOPED_TRACE(threads);
+      omp_set_num_threads(threads);
+      cholmod_sparse* S = permuted_upper_triangle(n * n, A.outerIndexPtr(), A.innerIndexPtr(), A.valuePtr(), perm,
+                                                  inverse.data(), common);
+      ASSERT_NE(S, nullptr);
+      EXPECT_EQ(S->stype, reference.S->stype);
+      EXPECT_TRUE(S->sorted && S->packed);
+      const int* Sp = static_cast<const int*>(S->p);
+      const int* Si = static_cast<const int*>(S->i);
+      const double* Sx = static_cast<const double*>(S->x);
+      ASSERT_TRUE(std::equal(Sp, Sp + n * n + 1, Rp));
+      EXPECT_TRUE(std::equal(Si, Si + Sp[n * n], Ri));
+      EXPECT_TRUE(std::equal(Sx, Sx + Sp[n * n], Rx));
+      cholmod_free_sparse(&S, common);
+    }
+    omp_set_num_threads(threads_before);
   }
 }
 
