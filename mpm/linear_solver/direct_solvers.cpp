@@ -295,10 +295,16 @@ class UpdatableLdlSolver final : public LinearSolver {
     cholmod_sparse s = view(A);
     const SerialBlasScope serial_blas;
     if (by_subtrees) {
-      // S = triu(P A P'), as cholmod_factorize builds it, on the threads.
+      // S = triu(P A P'), as cholmod_factorize builds it: on the threads, or by CHOLMOD's
+      // transposes where A's pattern is not symmetric.
       const int* perm = static_cast<const int*>(factor_->Perm);
       cholmod_sparse* upper = permuted_upper_triangle(int(A.rows()), A.outerIndexPtr(), A.innerIndexPtr(), A.valuePtr(), perm,
                                                       permuted_.data(), &common_);
+      if (!upper) {
+        cholmod_sparse* lower = cholmod_ptranspose(&s, 2, static_cast<int*>(factor_->Perm), nullptr, 0, &common_);
+        upper = lower ? cholmod_ptranspose(lower, 2, nullptr, nullptr, 0, &common_) : nullptr;
+        cholmod_free_sparse(&lower, &common_);
+      }
       if (!upper) throw NumericalFailure("CHOLMOD could not permute the pressure system (out of memory?)");
       if (!schedule_planned_) schedule_ = plan_subtree_schedule(upper, factor_, &common_), schedule_planned_ = true;
       factor_threads_ = schedule_.split() ? threads : 1;

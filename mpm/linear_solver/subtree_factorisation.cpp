@@ -359,23 +359,30 @@ bool solve_by_subtrees(const cholmod_factor* L, const SubtreeSchedule& schedule,
 
 cholmod_sparse* permuted_upper_triangle(int n, const int* column_start, const int* row, const double* value,
                                         const int* perm, const int* inverse, cholmod_common* common) {
-  // A's upper-triangle value of the pair (i, j) of column j's entry e: its own where i <= j,
-  // else the stored (j, i) of column i (A's values need not be symmetric to the bit).
-  auto upper_value = [&](int e, int j) {
+  // Where A's entry e = (i, j) of column j has i > j, the stored (j, i) of column i holds the
+  // pair's upper-triangle value (A's values need not be symmetric to the bit); -1 if there
+  // is none (then CHOLMOD, reading the upper triangle only, does not see the pair).
+  auto mirror = [&](int e, int j) {
     const int i = row[e];
-    if (i <= j) return value[e];
     const int* at = std::lower_bound(row + column_start[i], row + column_start[i + 1], j);
-    return value[at - row];
+    return at != row + column_start[i + 1] && *at == j ? int(at - row) : -1;
   };
+  // Per column of S its entries; per column of A its upper-triangle entries. An upper entry
+  // whose mirror is not stored would be missed by the gather: the totals then differ.
   std::vector<int> start(n + 1, 0);
-#pragma omp parallel for schedule(dynamic, 4096)
+  long upper_entries = 0;
+#pragma omp parallel for schedule(dynamic, 4096) reduction(+ : upper_entries)
   for (int k = 0; k < n; ++k) {
     const int j = perm[k];
     int count = 0;
-    for (int e = column_start[j]; e < column_start[j + 1]; ++e) count += inverse[row[e]] <= k;
+    for (int e = column_start[j]; e < column_start[j + 1]; ++e) {
+      upper_entries += row[e] <= j;
+      count += inverse[row[e]] <= k && (row[e] <= j || mirror(e, j) >= 0);
+    }
     start[k + 1] = count;
   }
   for (int k = 0; k < n; ++k) start[k + 1] += start[k];
+  if (start[n] != upper_entries) return nullptr;
   cholmod_sparse* S = cholmod_allocate_sparse(n, n, start[n], 1, 1, 1, CHOLMOD_REAL, common);
   if (!S) return nullptr;
   int* S_start = static_cast<int*>(S->p);
@@ -389,11 +396,12 @@ cholmod_sparse* permuted_upper_triangle(int n, const int* column_start, const in
     for (int e = column_start[j]; e < column_start[j + 1]; ++e) {
       const int new_row = inverse[row[e]];
       if (new_row > k) continue;
-      const double v = upper_value(e, j);
+      const int source = row[e] <= j ? e : mirror(e, j);
+      if (source < 0) continue;
       int at = q++;  // insertion by row: a column holds a handful of entries
       for (; at > start[k] && S_row[at - 1] > new_row; --at) S_row[at] = S_row[at - 1], S_value[at] = S_value[at - 1];
       S_row[at] = new_row;
-      S_value[at] = v;
+      S_value[at] = value[source];
     }
   }
   return S;

@@ -51,12 +51,15 @@ struct SubtreeSchedule {
 SubtreeSchedule plan_subtree_schedule(cholmod_sparse* S, const cholmod_factor* L, cholmod_common* common);
 
 // S = triu(P A P') exactly as cholmod_factorize builds it for a simplicial factor (two
-// cholmod_ptranspose calls on A's upper triangle: the same arrays, to the bit), from A with
-// both triangles of a symmetric pattern stored (n x n, compressed columns, rows sorted),
-// `perm` the factor's Perm (new -> old) and `inverse` its inverse. Column k of S gathers,
-// for the rows i of A's column perm[k] with inverse[i] <= k, A's upper-triangle entry of
-// the pair, sorted by new row; columns are independent, so they run on the OpenMP threads
-// (CHOLMOD's transposes run on one). Allocated in `common`; null if out of memory.
+// cholmod_ptranspose calls reading A's upper triangle: the same arrays, to the bit), from A
+// with both triangles stored (n x n, compressed columns, rows sorted), `perm` the factor's
+// Perm (new -> old) and `inverse` its inverse. Column k of S gathers, for the rows i of A's
+// column perm[k] with inverse[i] <= k, the pair's upper-triangle entry where A stores one,
+// sorted by new row; columns are independent, so they run on the OpenMP threads (CHOLMOD's
+// transposes run on one). Null where an upper entry's mirror is not stored (A's pattern may
+// be unsymmetric by explicit zeros: weighted_gram keeps a product through a stored zero of
+// D on one side only), which the gather cannot see: the caller then transposes as CHOLMOD
+// does. Allocated in `common`; null also if out of memory.
 cholmod_sparse* permuted_upper_triangle(int n, const int* column_start, const int* row, const double* value,
                                         const int* perm, const int* inverse, cholmod_common* common);
 

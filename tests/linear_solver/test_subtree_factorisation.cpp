@@ -160,7 +160,8 @@ TEST(SubtreeFactorisationTest, SameFactorAsCholmodToRoundOffAndTheSameBitsOnOneA
 // permuted_upper_triangle builds S = triu(P A P') with the arrays of cholmod_factorize's two
 // permuting transposes, to the bit, on one and two threads: on the stencil with its lower
 // triangle nudged by a relative 1e-12 (A's values need not be symmetric to the bit, and S
-// takes the upper ones), in the nested dissection order and in a random one.
+// takes the upper ones), in the nested dissection order and in a random one; and on
+// patterns made unsymmetric by an explicit zero (below).
 TEST(SubtreeFactorisationTest, PermutedUpperTriangleIsCholmodsTransposesToTheBit) {
   const int n = 40;
   SparseMatrix nudged = stencil(n, 7, false);
@@ -202,6 +203,51 @@ TEST(SubtreeFactorisationTest, PermutedUpperTriangleIsCholmodsTransposesToTheBit
     }
     omp_set_num_threads(threads_before);
   }
+  // A pattern made unsymmetric by an explicit zero: one stored in the lower triangle only is
+  // not read (as by CHOLMOD: the same arrays); one in the upper triangle only is gathered
+  // where it falls into its own column of S, and where it would have to be reached through
+  // its missing mirror the function says so (null) instead of leaving it out. Both orders of
+  // the grid, forwards and backwards, so that both happen.
+  int refused = 0;
+  std::vector<int> backwards = grid_order(n);
+  std::reverse(backwards.begin(), backwards.end());
+  for (const std::vector<int>& order : {grid_order(n), backwards})
+    for (const bool upper_only : {false, true}) {
+      SCOPED_TRACE(upper_only ? "an upper entry without its mirror" : "a lower entry without its mirror");
+      SparseMatrix B = A;
+      const int far = n * n - 1;  // (0, far) and (far, 0) are not in the stencil
+      if (upper_only)
+        B.insert(0, far) = 0.0;
+      else
+        B.insert(far, 0) = 0.0;
+      B.makeCompressed();
+      const SparseMatrix& C = B;
+      Cholmod cholmod;
+      cholmod_common* common = &cholmod.common[0];
+      cholmod_sparse view = Eigen::viewAsCholmod(C.selfadjointView<Eigen::Upper>());
+      const ReferenceFactor reference(view, order, common);
+      ASSERT_NE(reference.S, nullptr);
+      const int* perm = static_cast<const int*>(reference.factor->Perm);
+      std::vector<int> inverse(n * n);
+      for (int k = 0; k < n * n; ++k) inverse[perm[k]] = k;
+      cholmod_sparse* S =
+          permuted_upper_triangle(n * n, C.outerIndexPtr(), C.innerIndexPtr(), C.valuePtr(), perm, inverse.data(), common);
+      if (upper_only && inverse[0] > inverse[far]) {  // S's column of the new row 0 needs the mirror
+        EXPECT_EQ(S, nullptr);
+        ++refused;
+        continue;
+      }
+      ASSERT_NE(S, nullptr);
+      const int nonzeros = static_cast<const int*>(reference.S->p)[n * n];
+      EXPECT_TRUE(std::equal(static_cast<const int*>(S->p), static_cast<const int*>(S->p) + n * n + 1,
+                             static_cast<const int*>(reference.S->p)));
+      EXPECT_TRUE(std::equal(static_cast<const int*>(S->i), static_cast<const int*>(S->i) + nonzeros,
+                             static_cast<const int*>(reference.S->i)));
+      EXPECT_TRUE(std::equal(static_cast<const double*>(S->x), static_cast<const double*>(S->x) + nonzeros,
+                             static_cast<const double*>(reference.S->x)));
+      cholmod_free_sparse(&S, common);
+    }
+  EXPECT_EQ(refused, 1);
 }
 
 // solve_by_subtrees against cholmod_solve on the same factor: the same solution to
