@@ -157,6 +157,35 @@ TEST(SubtreeFactorisationTest, SameFactorAsCholmodToRoundOffAndTheSameBitsOnOneA
   }
 }
 
+// The factor's inverse permutation (old -> new), as the solver keeps it.
+std::vector<int> inverse_permutation(const cholmod_factor* factor) {
+  const int* perm = static_cast<const int*>(factor->Perm);
+  std::vector<int> inverse(factor->n);
+  for (int k = 0; k < int(factor->n); ++k) inverse[perm[k]] = k;
+  return inverse;
+}
+
+// permuted_upper_triangle of M in `reference`'s order.
+cholmod_sparse* permuted_upper_triangle_of(const SparseMatrix& M, const ReferenceFactor& reference, cholmod_common* common) {
+  const std::vector<int> inverse = inverse_permutation(reference.factor);
+  return permuted_upper_triangle(int(M.rows()), M.outerIndexPtr(), M.innerIndexPtr(), M.valuePtr(),
+                                 static_cast<const int*>(reference.factor->Perm), inverse.data(), common);
+}
+
+// S holds CHOLMOD's arrays of `expected`, entry for entry and to the bit.
+void expect_the_same_sparse(const cholmod_sparse* S, const cholmod_sparse* expected) {
+  EXPECT_EQ(S->stype, expected->stype);
+  EXPECT_TRUE(S->sorted && S->packed);
+  const int columns = int(expected->ncol);
+  const int* Sp = static_cast<const int*>(S->p);
+  const int* Ep = static_cast<const int*>(expected->p);
+  ASSERT_TRUE(std::equal(Sp, Sp + columns + 1, Ep));
+  EXPECT_TRUE(std::equal(static_cast<const int*>(S->i), static_cast<const int*>(S->i) + Sp[columns],
+                         static_cast<const int*>(expected->i)));
+  EXPECT_TRUE(std::equal(static_cast<const double*>(S->x), static_cast<const double*>(S->x) + Sp[columns],
+                         static_cast<const double*>(expected->x)));
+}
+
 // permuted_upper_triangle builds S = triu(P A P') with the arrays of cholmod_factorize's two
 // permuting transposes, to the bit, on one and two threads: on the stencil with its lower
 // triangle nudged by a relative 1e-12 (A's values need not be symmetric to the bit, and S
@@ -179,26 +208,12 @@ TEST(SubtreeFactorisationTest, PermutedUpperTriangleIsCholmodsTransposesToTheBit
     cholmod_sparse view = Eigen::viewAsCholmod(A.selfadjointView<Eigen::Upper>());
     const ReferenceFactor reference(view, order, common);
     ASSERT_NE(reference.S, nullptr);
-    const int* perm = static_cast<const int*>(reference.factor->Perm);
-    std::vector<int> inverse(n * n);
-    for (int k = 0; k < n * n; ++k) inverse[perm[k]] = k;
-    const int* Rp = static_cast<const int*>(reference.S->p);
-    const int* Ri = static_cast<const int*>(reference.S->i);
-    const double* Rx = static_cast<const double*>(reference.S->x);
     for (int threads : {1, 2}) {
       SCOPED_TRACE(threads);
       omp_set_num_threads(threads);
-      cholmod_sparse* S = permuted_upper_triangle(n * n, A.outerIndexPtr(), A.innerIndexPtr(), A.valuePtr(), perm,
-                                                  inverse.data(), common);
+      cholmod_sparse* S = permuted_upper_triangle_of(A, reference, common);
       ASSERT_NE(S, nullptr);
-      EXPECT_EQ(S->stype, reference.S->stype);
-      EXPECT_TRUE(S->sorted && S->packed);
-      const int* Sp = static_cast<const int*>(S->p);
-      const int* Si = static_cast<const int*>(S->i);
-      const double* Sx = static_cast<const double*>(S->x);
-      ASSERT_TRUE(std::equal(Sp, Sp + n * n + 1, Rp));
-      EXPECT_TRUE(std::equal(Si, Si + Sp[n * n], Ri));
-      EXPECT_TRUE(std::equal(Sx, Sx + Sp[n * n], Rx));
+      expect_the_same_sparse(S, reference.S);
       cholmod_free_sparse(&S, common);
     }
     omp_set_num_threads(threads_before);
@@ -227,24 +242,15 @@ TEST(SubtreeFactorisationTest, PermutedUpperTriangleIsCholmodsTransposesToTheBit
       cholmod_sparse view = Eigen::viewAsCholmod(C.selfadjointView<Eigen::Upper>());
       const ReferenceFactor reference(view, order, common);
       ASSERT_NE(reference.S, nullptr);
-      const int* perm = static_cast<const int*>(reference.factor->Perm);
-      std::vector<int> inverse(n * n);
-      for (int k = 0; k < n * n; ++k) inverse[perm[k]] = k;
-      cholmod_sparse* S =
-          permuted_upper_triangle(n * n, C.outerIndexPtr(), C.innerIndexPtr(), C.valuePtr(), perm, inverse.data(), common);
+      const std::vector<int> inverse = inverse_permutation(reference.factor);
+      cholmod_sparse* S = permuted_upper_triangle_of(C, reference, common);
       if (upper_only && inverse[0] > inverse[far]) {  // S's column of the new row 0 needs the mirror
         EXPECT_EQ(S, nullptr);
         ++refused;
         continue;
       }
       ASSERT_NE(S, nullptr);
-      const int nonzeros = static_cast<const int*>(reference.S->p)[n * n];
-      EXPECT_TRUE(std::equal(static_cast<const int*>(S->p), static_cast<const int*>(S->p) + n * n + 1,
-                             static_cast<const int*>(reference.S->p)));
-      EXPECT_TRUE(std::equal(static_cast<const int*>(S->i), static_cast<const int*>(S->i) + nonzeros,
-                             static_cast<const int*>(reference.S->i)));
-      EXPECT_TRUE(std::equal(static_cast<const double*>(S->x), static_cast<const double*>(S->x) + nonzeros,
-                             static_cast<const double*>(reference.S->x)));
+      expect_the_same_sparse(S, reference.S);
       cholmod_free_sparse(&S, common);
     }
   EXPECT_EQ(refused, 1);
