@@ -56,10 +56,10 @@ SubtreeSchedule plan_subtree_schedule(cholmod_sparse* S, const cholmod_factor* L
 // Perm (new -> old) and `inverse` its inverse. Column k of S gathers, for the rows i of A's
 // column perm[k] with inverse[i] <= k, the pair's upper-triangle entry where A stores one,
 // sorted by new row; columns are independent, so they run on the OpenMP threads (CHOLMOD's
-// transposes run on one). Null where an upper entry's mirror is not stored (the assembled
-// pattern is not always symmetric: an entry may be stored on one side only, found in a
-// face-row system), which the gather cannot see: the caller then transposes as CHOLMOD
-// does. Allocated in `common`; null also if out of memory.
+// transposes run on one). Null where an upper entry's mirror is not stored (a pattern that
+// is not symmetric; the assembled A's is, pressure/weighted_gram.h), which the gather
+// cannot see: the caller then transposes as CHOLMOD does. Allocated in `common`; null also
+// if out of memory.
 cholmod_sparse* permuted_upper_triangle(int n, const int* column_start, const int* row, const double* value,
                                         const int* perm, const int* inverse, cholmod_common* common);
 

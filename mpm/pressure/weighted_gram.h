@@ -3,8 +3,16 @@
 // over the entries k of row i of D and the rows j of column k. Rows are independent, so
 // they run on the OpenMP threads (dynamic schedule: a busy core takes fewer rows) and the
 // result does not depend on the thread count. Replaces two format conversions and Eigen's
-// general sparse product per step (issue 21: 15 % of a 2-D run). Products through a zero
-// weight (a held velocity component) are left out of A's pattern.
+// general sparse product per step (issue 21: 15 % of a 2-D run).
+//
+// A is symmetric to the bit, pattern and values: row i's pass computes the entries j <= i
+// only, the upper triangle of column i (the one CHOLMOD, the direct solver's gather of
+// the permuted upper triangle and IC(0) read), and the strict lower triangle is its
+// mirror. A(j,i), j <= i, is stored where some k of non-zero weight has D(i,k) != 0 and
+// D(j,k) stored; products through a zero weight (a held velocity component) are left out,
+// and a sum that cancels stays as a stored zero (in 2-D the centre rule's face neighbours),
+// since IC(0) fills it. Why the upper triangle keeps each row's own rounding, and not a
+// product symmetric in i and j: method.md#pressure-system.
 #pragma once
 
 #include <Eigen/SparseCore>
@@ -15,7 +23,7 @@
 
 namespace iqmpm {
 
-// A is symmetric and returned column-major with sorted indices (column i = row i).
+// Returned column-major with sorted indices (column i = row i).
 inline Eigen::SparseMatrix<Real> weighted_gram(const Eigen::SparseMatrix<Real, Eigen::RowMajor, int>& D,
                                                const Eigen::VectorXd& weight, Real scale) {
   const int rows = int(D.rows());
@@ -28,7 +36,7 @@ inline Eigen::SparseMatrix<Real> weighted_gram(const Eigen::SparseMatrix<Real, E
   const int blocks = (rows + kBlock - 1) / kBlock;
   std::vector<std::vector<int>> index(blocks);
   std::vector<std::vector<Real>> value(blocks);
-  std::vector<int> count(rows + 1, 0);  // entries of row i at count[i + 1]
+  std::vector<int> count(rows + 1, 0);  // upper entries of row i at count[i + 1]
 #pragma omp parallel
   {
     std::vector<Real> sum(rows, 0);
@@ -45,7 +53,7 @@ inline Eigen::SparseMatrix<Real> weighted_gram(const Eigen::SparseMatrix<Real, E
           const int k = int(ik.col());
           const Real left = scale * ik.value() * weight[k];
           if (left == 0) continue;
-          for (Eigen::SparseMatrix<Real>::InnerIterator jk(by_column, k); jk; ++jk) {
+          for (Eigen::SparseMatrix<Real>::InnerIterator jk(by_column, k); jk && jk.row() <= i; ++jk) {
             const int j = int(jk.row());
             if (!seen[j]) seen[j] = 1, touched.push_back(j);
             sum[j] += left * jk.value();
@@ -64,15 +72,34 @@ inline Eigen::SparseMatrix<Real> weighted_gram(const Eigen::SparseMatrix<Real, E
       value[b].assign(block_value.begin(), block_value.end());
     }
   }
+  // Column i of A: the upper entries of row i's pass (rows j <= i, sorted; the last is the
+  // diagonal, present whenever the row touches anything), then the mirrors of the columns
+  // j > i that hold row i (visited in ascending j, so sorted too).
+  std::vector<int> mirrors(rows, 0);
+  for (int b = 0; b < blocks; ++b)
+    for (int j : index[b]) ++mirrors[j];
+  std::vector<int> start(rows + 1, 0);
+  for (int i = 0; i < rows; ++i) start[i + 1] = start[i] + count[i + 1] + mirrors[i] - (count[i + 1] > 0);
   Eigen::SparseMatrix<Real> A(rows, rows);
-  for (int i = 0; i < rows; ++i) count[i + 1] += count[i];
-  A.resizeNonZeros(count[rows]);
-  std::copy(count.begin(), count.end(), A.outerIndexPtr());
-  for (int b = 0; b < blocks; ++b) {
-    const int first = count[std::min(rows, b * kBlock)];
-    std::copy(index[b].begin(), index[b].end(), A.innerIndexPtr() + first);
-    std::copy(value[b].begin(), value[b].end(), A.valuePtr() + first);
-  }
+  A.resizeNonZeros(start[rows]);
+  std::copy(start.begin(), start.end(), A.outerIndexPtr());
+  std::vector<int> next(rows);  // column i's next free slot for a mirror
+  for (int b = 0; b < blocks; ++b)
+    for (int i = b * kBlock, e = 0; i < std::min(rows, (b + 1) * kBlock); ++i) {
+      const int n = count[i + 1];
+      std::copy(index[b].begin() + e, index[b].begin() + e + n, A.innerIndexPtr() + start[i]);
+      std::copy(value[b].begin() + e, value[b].begin() + e + n, A.valuePtr() + start[i]);
+      next[i] = start[i] + n;
+      e += n;
+    }
+  for (int b = 0; b < blocks; ++b)
+    for (int j = b * kBlock, e = 0; j < std::min(rows, (b + 1) * kBlock); ++j)
+      for (const int end = e + count[j + 1]; e < end; ++e) {
+        const int i = index[b][e];
+        if (i == j) continue;
+        A.innerIndexPtr()[next[i]] = j;
+        A.valuePtr()[next[i]++] = value[b][e];
+      }
   return A;
 }
 

@@ -237,6 +237,62 @@ TEST(WeightedGramTest, EqualsTheSparseProductAndDoesNotDependOnTheThreadCount) {
   EXPECT_EQ(joined, one.nonZeros());
 }
 
+// A = A^T to the bit, pattern and values, on a random D whose rows also hold stored zeros
+// (Eigen keeps a triplet of value 0) and a few zero weights. The upper triangle is each
+// row's own pass: A(i,j), i <= j, is stored exactly where a column of non-zero weight has
+// a non-zero entry in row j and a stored one in row i; the lower triangle mirrors it. Two
+// rows whose products cancel, as the 2-D centre rule's face neighbours do (x and y terms
+// of equal size and opposite sign through one weight), keep their entry as an exact zero
+// on both sides.
+TEST(WeightedGramTest, IsSymmetricToTheBit) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<Real> value(-1, 1);
+  const int rows = 600, columns = 900;
+  std::uniform_int_distribution<int> column(2, columns - 1);
+  std::vector<Eigen::Triplet<Real>> entries;
+  for (int i = 0; i < rows - 2; ++i)
+    for (int k = 0; k < 6; ++k) entries.emplace_back(i, column(rng), k == 0 ? 0 : value(rng));
+  // Rows rows-2 and rows-1 meet in columns 0 and 1 (one corner's x and y) only, with
+  // products -1/4 and +1/4.
+  entries.emplace_back(rows - 2, 0, 0.5);
+  entries.emplace_back(rows - 2, 1, 0.5);
+  entries.emplace_back(rows - 1, 0, -0.5);
+  entries.emplace_back(rows - 1, 1, 0.5);
+  SparseRowMatrix D(rows, columns);
+  D.setFromTriplets(entries.begin(), entries.end());
+  Eigen::VectorXd weight(columns);
+  for (int k = 0; k < columns; ++k) weight[k] = k % 13 == 5 ? 0 : 1 + value(rng);
+  weight[1] = weight[0];
+  const SparseMatrix A = weighted_gram(D, weight, 0.01);
+  const SparseMatrix transposed = A.transpose();
+  ASSERT_EQ(A.nonZeros(), transposed.nonZeros());
+  EXPECT_TRUE(std::equal(A.outerIndexPtr(), A.outerIndexPtr() + rows + 1, transposed.outerIndexPtr()));
+  EXPECT_TRUE(std::equal(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros(), transposed.innerIndexPtr()));
+  EXPECT_TRUE(std::equal(A.valuePtr(), A.valuePtr() + A.nonZeros(), transposed.valuePtr()));
+  int joined = 0;
+  for (int c = 0; c < rows; ++c)
+    for (SparseMatrix::InnerIterator it(A, c); it; ++it) {
+      const int high = std::max(int(it.row()), c), low = std::min(int(it.row()), c);
+      bool through_weight = false;
+      for (SparseRowMatrix::InnerIterator a(D, high); a && !through_weight; ++a) {
+        if (weight[a.col()] == 0 || a.value() == 0) continue;
+        for (SparseRowMatrix::InnerIterator b(D, low); b && !through_weight; ++b) through_weight = b.col() == a.col();
+      }
+      joined += through_weight;
+    }
+  EXPECT_EQ(joined, A.nonZeros());
+  int stored_zeros = 0;
+  for (int k = 0; k < D.nonZeros(); ++k) stored_zeros += D.valuePtr()[k] == 0;
+  EXPECT_GT(stored_zeros, rows / 2);  // the random rows' stored zeros survived setFromTriplets
+  EXPECT_EQ(A.coeff(rows - 2, rows - 1), 0);
+  bool cancelled_pair_stored = false;
+  for (SparseMatrix::InnerIterator it(A, rows - 1); it; ++it) cancelled_pair_stored |= it.row() == rows - 2;
+  EXPECT_TRUE(cancelled_pair_stored);
+  const SparseMatrix by_column = D;
+  const SparseMatrix expected = 0.01 * (by_column * weight.asDiagonal() * by_column.transpose());
+  EXPECT_LE((SparseMatrix(A - expected)).norm(), 1e-14 * expected.norm());
+}
+
 // fluid.inertia = auto resolves to transfer in a scene without solids and to quadrature
 // in one with them (docs/method.md#fluid-inertia).
 TEST(FluidInertiaTest, AutoTakesTheTransferredMassOnlyWithoutSolids) {
