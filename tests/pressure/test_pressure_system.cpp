@@ -195,6 +195,18 @@ TEST(AddToDiagonalTest, EqualsCoeffRefEntryForEntry) {
   }
 }
 
+// Six entries a row in random columns of [first_column, columns), values in (-1, 1); with
+// stored_zero, each row's first entry is a stored 0.
+std::vector<Eigen::Triplet<Real>> random_constraint_rows(std::mt19937& rng, int rows, int columns, int first_column,
+                                                         bool stored_zero) {
+  std::uniform_real_distribution<Real> value(-1, 1);
+  std::uniform_int_distribution<int> column(first_column, columns - 1);
+  std::vector<Eigen::Triplet<Real>> entries;
+  for (int i = 0; i < rows; ++i)
+    for (int k = 0; k < 6; ++k) entries.emplace_back(i, column(rng), stored_zero && k == 0 ? 0 : value(rng));
+  return entries;
+}
+
 // weighted_gram's A = s D W D^T against Eigen's sparse product on a random D with a few
 // zero weights (whose products stay out of A's pattern): the same entries to round-off,
 // and one thread and two give the same matrix bit for bit (rows are independent; 1 500
@@ -203,10 +215,7 @@ TEST(WeightedGramTest, EqualsTheSparseProductAndDoesNotDependOnTheThreadCount) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<Real> value(-1, 1);
   const int rows = 1500, columns = 2400;
-  std::uniform_int_distribution<int> column(0, columns - 1);
-  std::vector<Eigen::Triplet<Real>> entries;
-  for (int i = 0; i < rows; ++i)
-    for (int k = 0; k < 6; ++k) entries.emplace_back(i, column(rng), value(rng));
+  const std::vector<Eigen::Triplet<Real>> entries = random_constraint_rows(rng, rows, columns, 0, false);
   SparseRowMatrix D(rows, columns);
   D.setFromTriplets(entries.begin(), entries.end());
   Eigen::VectorXd weight(columns);
@@ -248,10 +257,7 @@ TEST(WeightedGramTest, IsSymmetricToTheBit) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<Real> value(-1, 1);
   const int rows = 600, columns = 900;
-  std::uniform_int_distribution<int> column(2, columns - 1);
-  std::vector<Eigen::Triplet<Real>> entries;
-  for (int i = 0; i < rows - 2; ++i)
-    for (int k = 0; k < 6; ++k) entries.emplace_back(i, column(rng), k == 0 ? 0 : value(rng));
+  std::vector<Eigen::Triplet<Real>> entries = random_constraint_rows(rng, rows - 2, columns, 2, true);
   // Rows rows-2 and rows-1 meet in columns 0 and 1 (one corner's x and y) only, with
   // products -1/4 and +1/4.
   entries.emplace_back(rows - 2, 0, 0.5);
