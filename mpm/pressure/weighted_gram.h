@@ -72,34 +72,18 @@ inline Eigen::SparseMatrix<Real> weighted_gram(const Eigen::SparseMatrix<Real, E
       value[b].assign(block_value.begin(), block_value.end());
     }
   }
-  // Column i of A: the upper entries of row i's pass (rows j <= i, sorted; the last is the
-  // diagonal, present whenever the row touches anything), then the mirrors of the columns
-  // j > i that hold row i (visited in ascending j, so sorted too).
-  std::vector<int> mirrors(rows, 0);
-  for (int b = 0; b < blocks; ++b)
-    for (int j : index[b]) ++mirrors[j];
-  std::vector<int> start(rows + 1, 0);
-  for (int i = 0; i < rows; ++i) start[i + 1] = start[i] + count[i + 1] + mirrors[i] - (count[i + 1] > 0);
-  Eigen::SparseMatrix<Real> A(rows, rows);
-  A.resizeNonZeros(start[rows]);
-  std::copy(start.begin(), start.end(), A.outerIndexPtr());
-  std::vector<int> next(rows);  // column i's next free slot for a mirror
-  for (int b = 0; b < blocks; ++b)
-    for (int i = b * kBlock, e = 0; i < std::min(rows, (b + 1) * kBlock); ++i) {
-      const int n = count[i + 1];
-      std::copy(index[b].begin() + e, index[b].begin() + e + n, A.innerIndexPtr() + start[i]);
-      std::copy(value[b].begin() + e, value[b].begin() + e + n, A.valuePtr() + start[i]);
-      next[i] = start[i] + n;
-      e += n;
-    }
-  for (int b = 0; b < blocks; ++b)
-    for (int j = b * kBlock, e = 0; j < std::min(rows, (b + 1) * kBlock); ++j)
-      for (const int end = e + count[j + 1]; e < end; ++e) {
-        const int i = index[b][e];
-        if (i == j) continue;
-        A.innerIndexPtr()[next[i]] = j;
-        A.valuePtr()[next[i]++] = value[b][e];
-      }
+  // Column i of `upper`: the entries of row i's pass (rows j <= i, sorted); A is `upper` with
+  // its strict upper triangle mirrored (Eigen's conversion keeps the rows sorted).
+  Eigen::SparseMatrix<Real> upper(rows, rows);
+  for (int i = 0; i < rows; ++i) count[i + 1] += count[i];
+  upper.resizeNonZeros(count[rows]);
+  std::copy(count.begin(), count.end(), upper.outerIndexPtr());
+  for (int b = 0; b < blocks; ++b) {
+    const int first = count[std::min(rows, b * kBlock)];
+    std::copy(index[b].begin(), index[b].end(), upper.innerIndexPtr() + first);
+    std::copy(value[b].begin(), value[b].end(), upper.valuePtr() + first);
+  }
+  Eigen::SparseMatrix<Real> A = upper.selfadjointView<Eigen::Upper>();
   return A;
 }
 
