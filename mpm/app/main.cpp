@@ -128,7 +128,9 @@ int main(int argc, char** argv) {
   run->add_flag("--quiet,-q", quiet, "no progress output");
   run->add_option("--dump-system", dump_steps,
                   "write the pressure system of these steps (1-based) to the output folder: system_stepN.mtx (Matrix Market), "
-                  "rhs_stepN.mtx and layout_stepN.json (blocks, dual cell of each unknown), for benchmarks/solvers; an attempt of such a "
+                  "rhs_stepN.mtx, constraint_stepN.mtx (the rows D over the stacked velocities, solid nodes first) and layout_stepN.json "
+                  "(blocks, dual cell of each unknown, the dual cells' box, how many velocity entries are the solid's), for "
+                  "benchmarks/solvers; an attempt of such a "
                   "step that fails a check is written as well, as stepN_failedK (K: attempt), before dt is halved (not one that failed "
                   "before its system was assembled, e.g. in the solid's Newton step: a warning says so)")
       ->check(CLI::PositiveNumber)->delimiter(',');

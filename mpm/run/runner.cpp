@@ -61,21 +61,28 @@ ParticleFrame make_frame(const Simulation<dim>& sim, double time) {
   return frame;
 }
 
-// --dump-system: the step's pressure system A, its right-hand side r, and where each
-// unknown lives (block and dual cell; grid size), so benchmarks/solvers can try solvers
-// and preconditioners on real matrices. `label` is the step number, with the attempt for
-// a step that failed (so that a failure can be studied offline).
+// --dump-system: the step's pressure system A, its right-hand side r, the constraint rows D
+// over the stacked velocities (A = dt D M^-1 D^T + C), and where each unknown lives (block and
+// dual cell; grid size; how many velocity entries are the solid's), so benchmarks/solvers can
+// try solvers and preconditioners on real matrices and trace a step's interface force to the
+// rows that drive it. `label` is the step number, with the attempt for a step that failed (so
+// that a failure can be studied offline).
 template <int dim>
 void dump_pressure_system(const Simulation<dim>& sim, const std::string& directory, const std::string& label) {
   const PressureSystem& system = sim.pressure_system();
   const std::string stem = fmt::format("{}/{{}}_step{}", directory, label);
   Eigen::saveMarket(system.matrix(), fmt::format(stem, "system") + ".mtx");  // both triangles, "general"
   Eigen::saveMarketVector(system.rhs(sim.grid_velocity_before_projection()), fmt::format(stem, "rhs") + ".mtx");
+  Eigen::saveMarket(system.constraint(), fmt::format(stem, "constraint") + ".mtx");
   Json layout;
   layout["cells"] = std::vector<int>(sim.grid().cells.data(), sim.grid().cells.data() + dim);
   layout["unknowns"] = system.size();
   for (const auto& block : system.blocks()) layout["blocks"].push_back({{"name", block.name}, {"offset", block.offset}, {"size", block.size}});
   layout["dual_cell"] = sim.dual_cell_of_unknowns();
+  const GridLayout<dim> dual_cells = sim.grid().dual_cells();
+  layout["dual_cells"] = {{"lo", std::vector<int>(dual_cells.lo().data(), dual_cells.lo().data() + dim)},
+                          {"extent", std::vector<int>(dual_cells.extent().data(), dual_cells.extent().data() + dim)}};
+  layout["solid_velocity_entries"] = sim.solid_velocity_entries();
   write_file_atomically(fmt::format(stem, "layout") + ".json", layout.dump() + "\n");
 }
 

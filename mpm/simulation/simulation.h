@@ -142,6 +142,8 @@ class Simulation {
   const PressureSystem& pressure_system() const { return system_; }
   const Eigen::VectorXd& pressure_solution() const { return lambda_; }
   const Eigen::VectorXd& grid_velocity_before_projection() const { return velocity_star_; }
+  // The solid nodes' entries lead the stacked velocities (dim per node); the fluid corners' follow.
+  int solid_velocity_entries() const { return fluid_column_offset_; }
   const Eigen::VectorXd& grid_velocity_after_projection() const { return velocity_next_; }
   const std::vector<int>& fluid_cells() const { return ops_.cell_of_pressure; }  // dual cells with p_f
   // The dual cell (layout index) of each unknown of the last system: p_g, p_f, y (the cell
