@@ -14,7 +14,8 @@ What it computes
     `new` where the previous step (when it was dumped too) had no unknown of that block there:
     a cell that turns from empty to fluid, whose defect the projection removes in one step.
     The force is the sum over every solid (the dump does not say which node is whose): use it
-    on scenes with one body. With --metrics the total is checked against the run's probe.
+    on scenes with one body. With --metrics the run's probe is shown beside the total, with
+    their difference (round-off on a scene with one body).
 
 How to run
     build/iqmpm run benchmarks/dam_break_obstacle/dam_break_obstacle.json -o R \\
@@ -39,6 +40,12 @@ import scipy.sparse.linalg as spla  # noqa: E402
 COUPLING_BLOCKS = ("h", "p_f")
 
 
+def fail(message):
+    """Bad input: the message on stderr, exit code 2."""
+    print(f"error: {message}", file=sys.stderr)
+    sys.exit(2)
+
+
 def dumped_steps(folder):
     """Step labels with every file the analysis needs (failed attempts included), in order."""
     steps = []
@@ -56,8 +63,8 @@ def load(folder, label):
         layout = json.load(f)
     missing = [key for key in ("solid_velocity_entries", "dual_cells") if key not in layout]
     if missing:
-        sys.exit(f"error: {folder}/layout_step{label}.json lacks {', '.join(missing)}: dumped by an older iqmpm "
-                 "(--dump-system writes them since 2026-12-05)")
+        fail(f"{folder}/layout_step{label}.json lacks {', '.join(missing)}: dumped by an older iqmpm "
+             "(--dump-system writes them since 2026-12-05)")
     return read("system").tocsc(), np.ravel(np.asarray(read("rhs"))), read("constraint").tocsr(), layout
 
 
@@ -99,7 +106,7 @@ def probe_by_step(path, probe):
     with open(path) as f:
         rows = list(csv.DictReader(f))
     if not rows or probe not in rows[0]:
-        sys.exit(f"error: {path} has no column '{probe}' (columns: {', '.join(rows[0]) if rows else 'none'})")
+        fail(f"{path} has no column '{probe}' (columns: {', '.join(rows[0]) if rows else 'none'})")
     return [float(row[probe]) for row in rows]
 
 
@@ -109,15 +116,17 @@ def main(argv=None):
     parser.add_argument("folder", help="a run folder with --dump-system files")
     parser.add_argument("--axis", type=int, default=0, help="force component (default 0: x)")
     parser.add_argument("--top", type=int, default=10, help="rows listed per step (default 10)")
-    parser.add_argument("--metrics", help="the run's metrics.csv, to check the total against a probe")
+    parser.add_argument("--metrics", help="the run's metrics.csv, to show a probe beside the total")
     parser.add_argument("--probe", default="", help="with --metrics: the solid_force probe's column")
     parser.add_argument("--json", help="write the figures here as JSON")
     args = parser.parse_args(argv)
+    if not os.path.isdir(args.folder):
+        fail(f"{args.folder} is not a folder")
     labels = dumped_steps(args.folder)
     if not labels:
-        sys.exit(f"error: no complete dump in {args.folder} (system, rhs, constraint and layout files of one step)")
+        fail(f"no complete dump in {args.folder} (system, rhs, constraint and layout files of one step)")
     if args.metrics and not args.probe:
-        sys.exit("error: --metrics needs --probe (the solid_force probe's column in metrics.csv)")
+        fail("--metrics needs --probe (the solid_force probe's column in metrics.csv)")
     reference = probe_by_step(args.metrics, args.probe) if args.metrics else None
     cells_of = {}
     results = []
@@ -125,7 +134,7 @@ def main(argv=None):
         A, r, D, layout = load(args.folder, label)
         dim = len(layout["cells"])
         if not 0 <= args.axis < dim:
-            sys.exit(f"error: --axis {args.axis}: accepted 0 to {dim - 1} (the scene is {dim}-D)")
+            fail(f"--axis {args.axis}: accepted 0 to {dim - 1} (the scene is {dim}-D)")
         force, contribution, blocks = sources(A, r, D, layout, args.axis)
         dual = layout["dual_cell"]
         cells_of[label] = {(blocks[i], dual[i]) for i in range(len(dual)) if dual[i] >= 0}
@@ -141,9 +150,9 @@ def main(argv=None):
         if reference is not None and "_failed" not in label:
             n = int(label)
             if n >= len(reference):
-                sys.exit(f"error: {args.metrics} ends before step {n}")
+                fail(f"{args.metrics} ends before step {n}")
             step["probe"] = reference[n]
-            line += f" (probe {reference[n]:.6g})"
+            line += f" (probe {reference[n]:.6g}, difference {force - reference[n]:.2g})"
         print(line + "; sources by block: " + ", ".join(f"{k} {v:.4g}" for k, v in step["by_block"].items()))
         for row in step["rows"]:
             new = {None: "", True: "  new", False: ""}[row["new"]]

@@ -51,7 +51,10 @@ def test_rebuilt_force_is_the_measured_force(dumped_run):
         assert all((r["new"] is None) == first for r in s["rows"])
 
 
-def test_a_wrong_axis_names_the_accepted_values(dumped_run):
+@pytest.mark.parametrize("args, message", [(["--axis", "2"], "--axis 2: accepted 0 to 1"),
+                                           (["--metrics", "m.csv"], "--metrics needs --probe")])
+def test_bad_input_names_the_option_and_exits_2(dumped_run, capsys, args, message):
     with pytest.raises(SystemExit) as stop:
-        force_sources.main([str(dumped_run), "--axis", "2"])
-    assert "accepted 0 to 1" in str(stop.value)
+        force_sources.main([str(dumped_run), *args])
+    assert stop.value.code == 2
+    assert message in capsys.readouterr().err
