@@ -37,6 +37,8 @@ import numpy as np  # noqa: E402
 import scipy.io  # noqa: E402
 import scipy.sparse.linalg as spla  # noqa: E402
 
+import dual_cells  # noqa: E402  (benchmarks/solvers/dual_cells.py)
+
 COUPLING_BLOCKS = ("h", "p_f")
 
 
@@ -73,16 +75,6 @@ def block_of_rows(layout, size):
     for block in layout["blocks"]:
         names[block["offset"]:block["offset"] + block["size"]] = block["name"]
     return names
-
-
-def cell_index(layout, k):
-    """The multi-index of dual cell k (row-major over the dual cells' box, first axis outermost)."""
-    lo, extent = layout["dual_cells"]["lo"], layout["dual_cells"]["extent"]
-    index = []
-    for n in reversed(extent):
-        index.append(k % n)
-        k //= n
-    return tuple(int(i + l) for i, l in zip(reversed(index), lo))
 
 
 def sources(A, r, D, layout, axis):
@@ -143,7 +135,7 @@ def main(argv=None):
         for name in dict.fromkeys(b for b in blocks if b):
             step["by_block"][name] = float(contribution[blocks == name].sum())
         for i in np.argsort(-np.abs(contribution))[:args.top]:
-            step["rows"].append({"row": int(i), "block": blocks[i], "cell": cell_index(layout, dual[i]) if dual[i] >= 0 else None,
+            step["rows"].append({"row": int(i), "block": blocks[i], "cell": dual_cells.cell_index(layout, dual[i]) if dual[i] >= 0 else None,
                                  "rhs": float(r[i]), "contribution": float(contribution[i]),
                                  "new": None if previous is None else (blocks[i], dual[i]) not in previous})
         line = f"step {label}: force {force:.6g}"

@@ -69,6 +69,8 @@ except ImportError:  # Debian installs petsc4py under the PETSc tree; its dist-p
 petsc4py.init([sys.argv[0]])
 from petsc4py import PETSc  # noqa: E402
 
+import dual_cells  # noqa: E402  (benchmarks/solvers/dual_cells.py)
+
 # name -> (description, PETSc options); nullspace handled separately for the gamg variants
 PRECONDITIONERS = {
     "icc0": ("ICC(0) natural order", {"pc_type": "icc", "pc_factor_levels": 0,
@@ -139,17 +141,6 @@ def read_system(path):
     return sp.csr_matrix((v, (i, j)), shape=(n, m)), both
 
 
-def parity_signs(layout):
-    """(-1)^(i+j[+k]) of each unknown's dual cell, +1 for an unknown without one."""
-    dual = np.asarray(layout["dual_cell"])
-    parity = np.zeros_like(dual)
-    rest = np.maximum(dual, 0)
-    for ncell in layout["cells"]:  # x fastest: index = i + nx*(j + ny*k)
-        parity += rest % ncell
-        rest //= ncell
-    return np.where((dual >= 0) & (parity % 2 == 1), -1.0, 1.0)
-
-
 def near_null_vectors(layout, kind):
     """Near-null vectors on the p_f block: 'cpf' = constant; 'cb' = constant + Q1-P0 checkerboard."""
     n = layout["unknowns"]
@@ -160,7 +151,7 @@ def near_null_vectors(layout, kind):
     vecs = [const]
     if kind == "cb":
         cb = np.zeros(n)
-        cb[rows] = parity_signs(layout)[rows]
+        cb[rows] = dual_cells.parity_signs(layout)[rows]
         vecs.append(cb)
     q, _ = np.linalg.qr(np.column_stack(vecs))  # orthonormalise
     return [q[:, i].copy() for i in range(q.shape[1])]
@@ -175,22 +166,8 @@ def spectrum(A, layout, k):
     S = (dm @ A @ dm).tocsc()
     lo, vecs = spla.eigsh(S, k=k, sigma=0, which="LM")
     hi = spla.eigsh(S, k=1, which="LA", return_eigenvectors=False)[0]
-    dual = np.asarray(layout["dual_cell"])
-    cells = layout["cells"]
-    where = -np.ones(int(np.prod(cells)), dtype=np.int64)
-    has = np.flatnonzero(dual >= 0)
-    where[dual[has]] = has
-    pairs = []
-    stride = 1
-    for axis, ncell in enumerate(cells):
-        coord = (dual[has] // stride) % ncell
-        m = coord < ncell - 1
-        nbr = where[dual[has][m] + stride]
-        ok = nbr >= 0
-        pairs.append(np.stack([has[m][ok], nbr[ok]]))
-        stride *= ncell
-    pairs = np.concatenate(pairs, axis=1)
-    sgn = parity_signs(layout)
+    pairs = dual_cells.face_pairs(layout, np.arange(A.shape[0]))
+    sgn = dual_cells.parity_signs(layout)
     n_cb = 0
     for q in range(k):
         v = dm @ vecs[:, q]
@@ -216,7 +193,7 @@ def solve_once(A, b, layout, name, rtol, max_it, shift):
     """Build a fresh Mat/KSP, set up and solve; returns the record of this attempt."""
     desc, options = PRECONDITIONERS[name]
     if name.endswith("_flip"):  # solve (S A S) y = S b, x = S y: same iterations as on A itself
-        sgn = parity_signs(layout)
+        sgn = dual_cells.parity_signs(layout)
         A = (sp.diags(sgn) @ A @ sp.diags(sgn)).tocsr()
         b = sgn * b
     M = petsc_matrix(A)

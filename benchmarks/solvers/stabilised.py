@@ -30,32 +30,18 @@ import scipy.io  # noqa: E402
 import scipy.sparse as sp  # noqa: E402
 import scipy.sparse.linalg as spla  # noqa: E402
 
+import dual_cells  # noqa: E402  (benchmarks/solvers/dual_cells.py)
 import matrices  # noqa: E402  (benchmarks/solvers/matrices.py: reader, PETSc set-up)
 from matrices import PETSc  # noqa: E402
 
 
 def face_laplacian(layout):
     """Graph Laplacian over face-neighbour dual cells of the p_f unknowns, and those unknowns."""
-    dual = np.asarray(layout["dual_cell"])
-    cells = layout["cells"]
     n = layout["unknowns"]
     block = next(b for b in layout["blocks"] if b["name"] == "p_f")
-    is_pf = np.zeros(n, bool)
-    is_pf[block["offset"]:block["offset"] + block["size"]] = True
-    where = -np.ones(int(np.prod(cells)), dtype=np.int64)
-    pf = np.flatnonzero((dual >= 0) & is_pf)
-    where[dual[pf]] = pf
-    rows, cols = [], []
-    stride = 1
-    for ncell in cells:  # x fastest: index = i + nx*(j + ny*k)
-        coord = (dual[pf] // stride) % ncell
-        inside = coord < ncell - 1
-        neighbour = where[dual[pf][inside] + stride]
-        ok = neighbour >= 0
-        rows.append(pf[inside][ok])
-        cols.append(neighbour[ok])
-        stride *= ncell
-    rows, cols = np.concatenate(rows), np.concatenate(cols)
+    pf = np.arange(block["offset"], block["offset"] + block["size"])
+    pf = pf[np.asarray(layout["dual_cell"])[pf] >= 0]
+    rows, cols = dual_cells.face_pairs(layout, pf)
     W = sp.coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
     W = (W + W.T).tocsr()
     return (sp.diags(np.asarray(W.sum(axis=1)).ravel()) - W).tocsr(), pf
@@ -116,7 +102,7 @@ def main():
                 row.append(str(matrices.run_pc(As, b, layout, pc, 1e-8, 2000, 1).get("iterations")))
             if args.as_preconditioner:
                 row.append(str(cg_on_a_amg_on(A, As, b)))
-                row.append(str(cg_on_a_amg_on(A, As, b, matrices.parity_signs(layout))))
+                row.append(str(cg_on_a_amg_on(A, As, b, dual_cells.parity_signs(layout))))
             print("| " + " | ".join(row) + " |", flush=True)
 
 
