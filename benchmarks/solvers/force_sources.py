@@ -6,8 +6,9 @@ What it computes
     For each dumped step (`iqmpm run ... --dump-system N`: system_stepN.mtx, rhs_stepN.mtx,
     constraint_stepN.mtx, layout_stepN.json) the force of the water on the solids along one axis,
     as the solver measures it (docs/method.md#interface-force): f = g . lambda with A lambda = r,
-    g_i = -sum of row i of D over the solids' entries along the axis, for the coupling rows (h,
-    and p_f where fluid corners move with a solid), zero for the others (p_g, y). Since A is
+    g_i = -sum of row i of D over the solids' entries along the axis, for the coupling rows (h;
+    p_f where fluid corners move with a solid; p_a, trapped air against a solid), zero for the
+    others (p_g, y). Since A is
     symmetric, f = w . r with A w = g: row i contributes w_i r_i, its right-hand side (the
     constraint's defect before the projection, D v*) times the force's sensitivity to it. The
     rows with the largest contributions are listed with their block and dual cell, and marked
@@ -39,7 +40,7 @@ import scipy.sparse.linalg as spla  # noqa: E402
 
 import dual_cells  # noqa: E402  (benchmarks/solvers/dual_cells.py)
 
-COUPLING_BLOCKS = ("h", "p_f")
+COUPLING_BLOCKS = ("h", "p_f", "p_a")
 
 
 def fail(message):

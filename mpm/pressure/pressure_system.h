@@ -282,7 +282,7 @@ class PressureSystem {
     return std::sqrt(residual2) / scale;
   }
 
-  // The multipliers (p_g, p_f, y, h): the solution's first unknowns() entries.
+  // The multipliers (p_g, p_f, y, h, p_a): the solution's first unknowns() entries.
   int unknowns() const { return rows_; }
   // The rows of the solved system: the multipliers, then the mass block's velocities.
   int size() const { return rows_ + int(block_columns_.size()); }

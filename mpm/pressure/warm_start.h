@@ -21,6 +21,7 @@ namespace iqmpm {
 // Offsets of the blocks of the pressure system in its solution vector (-1: absent).
 struct SolutionLayout {
   int ghost = -1, pressure = -1, wall = -1, interface = -1;
+  int air = -1;  // experimental.trapped_air's pockets: no field of the warm start (zero guess)
 };
 
 enum class WarmStartKind {

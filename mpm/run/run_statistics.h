@@ -21,6 +21,9 @@ class RunStatistics {
     newton_.add(s.newton_iterations);
     newton_cg_total_ += s.newton_cg_iterations;
     extended_nodes_.add(s.extended_solid_nodes);
+    air_pockets_.add(s.air_pockets);
+    air_pocket_steps_ += s.air_pockets > 0;
+    largest_air_pocket_ = std::max(largest_air_pocket_, s.air_pocket_cells);
     solid_min_J_ = std::min(solid_min_J_, double(s.solid_min_J));
     contact_rounds_.add(s.contact_rounds);
     unsettled_steps_ += !s.contact_settled;
@@ -36,7 +39,8 @@ class RunStatistics {
             {"contact_rounds", range(contact_rounds_)}, {"newton_cg_total", newton_cg_total_}, {"wall_clamps", wall_clamps_},
             {"shifted_solves", shifted_solves_}, {"solid_min_J", solid_min_J_}, {"unsettled_steps", unsettled_steps_},
             {"modified_solves", modified_solves_}, {"linear_method", linear_method_},
-            {"extended_solid_nodes", range(extended_nodes_)}};
+            {"extended_solid_nodes", range(extended_nodes_)}, {"air_pockets", range(air_pockets_)},
+            {"air_pocket_steps", air_pocket_steps_}, {"largest_air_pocket", largest_air_pocket_}};
   }
   void restore(const Json& state) {
     auto range = [](const Json& j) { return Range{j.at(0).get<long>(), j.at(1).get<int>(), j.at(2).get<int>()}; };
@@ -54,6 +58,10 @@ class RunStatistics {
     linear_method_ = state.at("linear_method").get<std::string>();
     // A checkpoint written before solid_weak_nodes existed has no count: none were extended.
     extended_nodes_ = state.contains("extended_solid_nodes") ? range(state.at("extended_solid_nodes")) : Range{};
+    // Nor one written before experimental.trapped_air: no pockets.
+    air_pockets_ = state.contains("air_pockets") ? range(state.at("air_pockets")) : Range{};
+    air_pocket_steps_ = state.value("air_pocket_steps", 0L);
+    largest_air_pocket_ = state.value("largest_air_pocket", 0);
   }
 
   // The statistics' fields of summary.json.
@@ -75,6 +83,10 @@ class RunStatistics {
                                   {"max", contact_rounds_.max},
                                   {"unsettled_steps", unsettled_steps_},
                                   {"factor_modified", modified_solves_}};
+    // Pockets of trapped air held per step (experimental.trapped_air = incompressible), the steps
+    // with any, and the largest pocket's dual cells.
+    summary["trapped_air"] = {{"pockets_mean", air_pockets_.mean(steps_)}, {"pockets_max", air_pockets_.max},
+                              {"steps", air_pocket_steps_}, {"largest_pocket_cells", largest_air_pocket_}};
     summary["wall_clamps"] = wall_clamps_;
     summary["shifted_solves"] = shifted_solves_;  // direct solves retried with a tiny diagonal shift
   }
@@ -92,7 +104,9 @@ class RunStatistics {
   };
   long steps_ = 0;
   int active_cells_max_ = 0;
-  Range linear_, newton_, contact_rounds_, extended_nodes_;
+  Range linear_, newton_, contact_rounds_, extended_nodes_, air_pockets_;
+  long air_pocket_steps_ = 0;
+  int largest_air_pocket_ = 0;
   long newton_cg_total_ = 0;
   int wall_clamps_ = 0;
   long shifted_solves_ = 0;

@@ -239,6 +239,13 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
     e.max_contact_rounds = experimental.integer(
         "max_contact_rounds", e.max_contact_rounds, 1, 100,
         "unilateral interface: pressure solves per step at most; the last one's solution is kept");
+    e.trapped_air = experimental.option<bool>(
+        "trapped_air", false, {{"none", false}, {"incompressible", true}},
+        "air that the water encloses (a set of empty cells of at least 2^dim cells, apart from the open air at the "
+        "top of the domain): none, every empty cell is air at p = 0 and water closing over a cavity falls into it; "
+        "incompressible, each pocket gets one uniform pressure that holds the flow into it at zero in each step, "
+        "as in the incompressible air of a two-phase solver such as interFoam, but a volume lost as particles "
+        "stray into it is not given back (docs/method.md#trapped-air)");
     experimental.finish();
     const bool ldlt = scene.solver.method == LinearSolverMethod::ldlt ||
                       (scene.solver.method == LinearSolverMethod::automatic && dim == 2);
@@ -285,6 +292,9 @@ SceneSpec read(const Json& document, std::vector<KeyDoc>* docs) {
       if (scene.solids[i].initial_pressure == InitialPressure::hydrostatic && (scene.fluid.shapes.empty() || no_gravity))
         throw InputError(fmt::format("scene key 'solids[{}].initial_pressure' = \"hydrostatic\": needs fluid (fluid.shapes) "
                                      "and gravity; accepted without them: \"zero\"", i));
+    if (scene.experimental.trapped_air && no_gravity)
+      throw InputError("scene key 'experimental.trapped_air' = \"incompressible\": needs gravity (the open air is the top of the domain, "
+                       "opposite to gravity); accepted without it: \"none\"");
     if (scene.fluid.shapes.empty() && scene.solids.empty())
       throw InputError("scene key 'fluid.shapes': the scene has no material (give at least one fluid shape or a solid in 'solids')");
     for (std::size_t i = 0; i < scene.solids.size(); ++i)

@@ -110,6 +110,7 @@ struct ExperimentalSpec {
   Real position_correction = 0;                // relaxation of the particle position correction; 0 = off
   SolidResponse solid_response = SolidResponse::mass;  // the solid's mass matrix in the coupled solve
   int max_contact_rounds = 8;                  // unilateral interface: pressure solves per step at most
+  bool trapped_air = false;                    // air enclosed by the water keeps its flux zero (docs/method.md#trapped-air)
 };
 
 // When a run writes checkpoint.h5 (docs/method.md#checkpoints); it always does at its end

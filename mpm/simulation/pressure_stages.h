@@ -46,6 +46,29 @@ void Simulation<dim>::build_operators() {
     iq_ops_ = build_interface_operators(grid_, iq_points_, solid_, mass_reflected_across_walls<dim>(grid_, node_momentum_.mass, slip_),
                                         solid_ops_.dof_of_node, ops_.dof_of_corner, solid_ops_.velocity_dofs() * dim);
   }
+  trapped_air_ = {};
+  if (options_.trapped_air && has_fluid()) {
+    auto scope = timer_.scope("fluid operators");
+    const GridLayout<dim> cells = grid_.dual_cells();
+    const bool solids = has_solids();
+    auto holds_solid = [&](int cell) { return solids && solid_ops_.pressure_of_cell[cell] >= 0; };
+    auto is_air = [&](int cell) { return ops_.pressure_of_cell[cell] < 0 && !holds_solid(cell); };
+    // A boundary corner that is no fluid unknown moves with a solid when one of its cells
+    // holds solid particles; otherwise it lies on a wall.
+    auto moves_with_solid = [&](int corner) {
+      bool found = false;
+      const IVec<dim> c = grid_.corners().multi_index(corner);
+      for_each_offset<dim, 2>([&](const IVec<dim>& offset) {
+        const IVec<dim> cell = c - offset;
+        if (cells.contains(cell) && holds_solid(cells.index(cell))) found = true;
+      });
+      return found;
+    };
+    const DomainSide up{up_axis_, gravity_[up_axis_] < 0 ? 1 : 0};
+    trapped_air_ = find_trapped_air<dim>(grid_, ops_, up, is_air, moves_with_solid);
+  }
+  last_.air_pockets = trapped_air_.size();
+  last_.air_pocket_cells = trapped_air_.largest();
 }
 
 // §5: the stacked velocities are the solid nodes' (v_s*, after Newton) then the fluid
@@ -130,6 +153,16 @@ void Simulation<dim>::assemble_pressure_system(Real dt) {
   if (!iq_points_.empty()) {  // rows H^f v_f - H^s v_s, columns already stacked
     layout_.interface = system_.unknowns();
     system_.add_block("h", iq_ops_.multipliers(), iq_ops_.rows);
+  }
+  if (trapped_air_.size() > 0) {  // rows -(d/dt of each pocket's volume), on fluid corners and solid nodes
+    layout_.air = system_.unknowns();
+    const int block = system_.add_block("p_a", trapped_air_.size(), trapped_air_.rows, {}, {}, fluid_column_offset_);
+    std::vector<Triplet> on_solid;
+    for (const auto& entry : trapped_air_.solid_corner_rows)
+      for_each_solid_weight(grid_, grid_.corners().multi_index(entry.corner), solid_ops_.dof_of_node, [&](int dof, Real weight) {
+        for (int a = 0; a < dim; ++a) on_solid.emplace_back(entry.row, dof * dim + a, weight * entry.coefficient[a]);
+      });
+    system_.add_entries(block, on_solid);
   }
   system_.assemble(dt);
   last_.pressure_unknowns = system_.unknowns();
@@ -330,6 +363,8 @@ void Simulation<dim>::measure_interface_forces() {
   coupling.segment(layout_.interface, iq_ops_.multipliers()) = acting.segment(layout_.interface, iq_ops_.multipliers());
   if (!ops_.solid_corner_gradient.empty())
     coupling.segment(layout_.pressure, ops_.pressure_unknowns()) = acting.segment(layout_.pressure, ops_.pressure_unknowns());
+  if (layout_.air >= 0 && !trapped_air_.solid_corner_rows.empty())  // trapped air pushing on a solid
+    coupling.segment(layout_.air, trapped_air_.size()) = acting.segment(layout_.air, trapped_air_.size());
   const Eigen::VectorXd nodal = -(system_.constraint().transpose() * coupling);
   particle_force_ = interface_force_on_particles(grid_, solid_, node_momentum_.mass, solid_ops_, nodal);
 }
@@ -358,6 +393,7 @@ std::vector<int> Simulation<dim>::dual_cell_of_unknowns() const {
   if (layout_.wall >= 0)
     for (std::size_t f = 0; f < ops_.wall_faces.size(); ++f) cell[layout_.wall + f] = ops_.wall_faces[f].dual_cell;
   place(layout_.interface, iq_ops_.cell_of_multiplier);
+  place(layout_.air, trapped_air_.cell_of_pocket());
   return cell;
 }
 

@@ -27,6 +27,7 @@ inline StepOptions resolve_step_options(const SceneSpec& scene) {
   // and did not calm the obstacle's force (docs/method.md#fluid-inertia).
   o.inertia_from_transfer = scene.fluid.inertia == FluidInertia::transfer ||
                             (scene.fluid.inertia == FluidInertia::automatic && scene.solids.empty());
+  o.trapped_air = scene.experimental.trapped_air;
   o.position_correction = scene.experimental.position_correction;
   o.unilateral = scene.coupling.interface == InterfaceConstraint::unilateral;
   o.max_contact_rounds = scene.experimental.max_contact_rounds;

@@ -16,6 +16,7 @@
 #include "core/stage_timer.h"
 #include "core/types.h"
 #include "fluid/fluid_operators.h"
+#include "fluid/trapped_air.h"
 #include "grid/grid.h"
 #include "grid/nested_dissection.h"
 #include "interface/interface_quadrature.h"
@@ -49,6 +50,8 @@ struct StepStats {
   bool contact_settled = true;  // unilateral: the active set stopped changing within max_contact_rounds
   int modified_solves = 0;      // unilateral: rounds solved by modifying the LDL^T factor's changed rows
   int correction_unknowns = 0;  // the position correction's own system (with solids; 0: none or the step's factor)
+  int air_pockets = 0;          // experimental.trapped_air: pockets held this step
+  int air_pocket_cells = 0;     // ... and the largest one's dual cells
 };
 
 // The scene's choices as the step uses them, resolved once.
@@ -57,6 +60,7 @@ struct StepOptions {
   bool surface_cells_at_centre = true;       // fluid.surface_quadrature
   bool walls_on_corners = true;              // fluid.wall_constraint
   bool inertia_from_transfer = false;        // fluid.inertia = transfer
+  bool trapped_air = false;                  // experimental.trapped_air = incompressible
   Real position_correction = 0;              // experimental.position_correction; 0 = off
   bool unilateral = false;                   // coupling.interface
   int max_contact_rounds = 8;                // experimental.max_contact_rounds
@@ -147,7 +151,7 @@ class Simulation {
   const Eigen::VectorXd& grid_velocity_after_projection() const { return velocity_next_; }
   const std::vector<int>& fluid_cells() const { return ops_.cell_of_pressure; }  // dual cells with p_f
   // The dual cell (layout index) of each unknown of the last system: p_g, p_f, y (the cell
-  // next to the wall face), h; -1 for the mass block's velocities.
+  // next to the wall face), h, p_a (the pocket's first cell); -1 for the mass block's velocities.
   std::vector<int> dual_cell_of_unknowns() const;
 
  private:
@@ -213,11 +217,12 @@ class Simulation {
   std::vector<std::uint8_t> solid_corners_;    // fluid corners moving with a solid (coupling.solid_corner_fraction)
   InterfacePoints<dim> iq_points_;             // empty: no coupling this step
   InterfaceOperators<dim> iq_ops_;
+  TrappedAir<dim> trapped_air_;                // experimental.trapped_air: this step's pockets (p_a)
   Particles<dim> borrowed_points_;             // the massless G^f points at IQ points
   ParticleBins<dim> borrowed_point_bins_;
   std::vector<Vec<dim>> particle_force_;       // interface force per solid particle
 
-  // The pressure system: blocks (p_g, p_f, y, h) and the stacked grid velocities (solid
+  // The pressure system: blocks (p_g, p_f, y, h, p_a) and the stacked grid velocities (solid
   // nodes, then fluid corners).
   SolutionLayout layout_;
   int fluid_column_offset_ = 0;
@@ -234,7 +239,7 @@ class Simulation {
   std::array<std::array<Real, 2>, dim> wall_force_{};
   std::unique_ptr<LinearSolver> pressure_solver_;
   std::vector<int> direct_order_;  // this step's order for a direct solver (solver.ordering cells or grid); handed over once
-  Eigen::VectorXd lambda_;         // solution: the multipliers (p_g, p_f, y, h), then the mass block's u
+  Eigen::VectorXd lambda_;         // solution: the multipliers (p_g, p_f, y, h, p_a), then the mass block's u
   WarmStart warm_start_;
   UnknownLocations unknown_locations_;  // of this step's system
   Real time_ = 0;                       // at the end of the step (in progress)

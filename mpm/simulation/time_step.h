@@ -38,10 +38,10 @@ void Simulation<dim>::step(Real dt) {
   // §3 step 2: the solid's elastic step alone, v_s^n -> v_s*, by projected Newton.
   if (has_solids()) solve_solid_momentum(dt);
 
-  // §4: G^f, M^f, B; G^s, S; H^s, H^f.
+  // §4: G^f, M^f, B; G^s, S; H^s, H^f (and the pockets of trapped air, if asked for).
   build_operators();
 
-  // §5: the pressure-only system A = dt D M^-1 D^T + C in (p_g, p_f, y, h) ...
+  // §5: the pressure-only system A = dt D M^-1 D^T + C in (p_g, p_f, y, h[, p_a]) ...
   assemble_pressure_system(dt);
 
   // ... solved under the interface constraint (bilateral, or unilateral by active sets).
