@@ -6,6 +6,9 @@
 // rows by the centre rule on full cells, -(d/dt of the pocket's volume). Summed over a
 // connected set the corners inside it cancel, so the row holds the flux through the pocket's
 // boundary only: the corners it shares with water or a solid (and on a wall, along the wall).
+// Water floating inside the pocket (drops, spray) counts with the pocket's cells, so that its
+// corners are inside too: a drop's corners are light (a particle's far tail), and as the
+// pocket's boundary they would let its volume out at almost no pressure.
 #pragma once
 
 #include <algorithm>
@@ -54,30 +57,65 @@ TrappedAir<dim> find_trapped_air(const Grid<dim>& grid, const FluidOperators<dim
   TrappedAir<dim> air;
   const GridLayout<dim> cells = grid.dual_cells(), corners = grid.corners();
   const int top = up.side == 1 ? grid.cells[up.axis] - 1 : 0;
-  std::vector<char> seen(cells.size(), 0);
+  auto is_water = [&](int k) { return ops.pressure_of_cell[k] >= 0; };
+  auto for_each_face_neighbour = [&](int k, auto&& f) {
+    const IVec<dim> cell = cells.multi_index(k);
+    for (int a = 0; a < dim; ++a)
+      for (int step : {-1, 1}) {
+        IVec<dim> next = cell;
+        next[a] += step;
+        if (cells.contains(next)) f(cells.index(next));
+      }
+  };
+  // Face-connected sets of cells that pass `member`, labelled in `label`.
+  auto label_sets = [&](auto member, std::vector<int>& label) {
+    std::vector<std::vector<int>> sets;
+    label.assign(cells.size(), -1);
+    for (int start = 0; start < cells.size(); ++start) {
+      if (label[start] >= 0 || !member(start)) continue;
+      std::vector<int> set{start};
+      label[start] = int(sets.size());
+      for (std::size_t q = 0; q < set.size(); ++q)
+        for_each_face_neighbour(set[q], [&](int k) {
+          if (label[k] < 0 && member(k)) label[k] = label[start], set.push_back(k);
+        });
+      sets.push_back(std::move(set));
+    }
+    return sets;
+  };
+  std::vector<int> air_set, water_set;
+  std::vector<std::vector<int>> air_sets = label_sets(is_air, air_set);
+  const std::vector<std::vector<int>> water_sets = label_sets(is_water, water_set);
+  std::vector<char> is_pocket(air_sets.size());
+  for (std::size_t id = 0; id < air_sets.size(); ++id) {
+    bool open = false;
+    for (int k : air_sets[id]) open = open || cells.multi_index(k)[up.axis] == top;
+    is_pocket[id] = !open && int(air_sets[id].size()) >= smallest_air_pocket<dim>;
+  }
+  // Water that floats inside one pocket (a drop, spray: a set of water cells whose every
+  // other neighbour is that pocket's air or a wall) is inside it: the pocket's boundary is
+  // the surface of the water around it, and the drop's own rows keep the drop's volume.
+  std::vector<std::vector<int>> floating(air_sets.size());
+  for (const auto& set : water_sets) {
+    int pocket = -1;
+    bool enclosed = true;
+    for (int k : set)
+      for_each_face_neighbour(k, [&](int j) {
+        if (is_water(j)) return;
+        if (!is_air(j) || (pocket >= 0 && air_set[j] != pocket)) enclosed = false;
+        else pocket = air_set[j];
+      });
+    if (enclosed && pocket >= 0 && is_pocket[pocket]) floating[pocket].insert(floating[pocket].end(), set.begin(), set.end());
+  }
+
   std::vector<Vec<dim>> coefficient(corners.size(), Vec<dim>::Zero());
   std::vector<int> touched;
-  for (int start = 0; start < cells.size(); ++start) {
-    if (seen[start] || !is_air(start)) continue;
-    std::vector<int> pocket{start};
-    seen[start] = 1;
-    bool open = false;
-    for (std::size_t q = 0; q < pocket.size(); ++q) {
-      const IVec<dim> cell = cells.multi_index(pocket[q]);
-      open = open || cell[up.axis] == top;
-      for (int a = 0; a < dim; ++a)
-        for (int step : {-1, 1}) {
-          IVec<dim> next = cell;
-          next[a] += step;
-          if (!cells.contains(next)) continue;
-          const int k = cells.index(next);
-          if (!seen[k] && is_air(k)) seen[k] = 1, pocket.push_back(k);
-        }
-    }
-    if (open || int(pocket.size()) < smallest_air_pocket<dim>) continue;
-
-    // The row: -(sum over the pocket's cells of cell volume x grad N1_c at the cell's centre).
-    for (int k : pocket) {
+  for (std::size_t id = 0; id < air_sets.size(); ++id) {
+    if (!is_pocket[id]) continue;
+    std::vector<int>& pocket = air_sets[id];
+    // The row: -(sum over the pocket's cells, and the water floating in it, of cell volume x
+    // grad N1_c at the cell's centre).
+    auto add_cell = [&](int k) {
       const IVec<dim> cell = cells.multi_index(k);
       const auto stencil = linear_stencil<dim>(grid.to_cells(grid.dual_cell_centre(cell)), grid.dx);
       for_each_offset<dim, 2>([&](const IVec<dim>& offset) {
@@ -85,7 +123,9 @@ TrappedAir<dim> find_trapped_air(const Grid<dim>& grid, const FluidOperators<dim
         if (coefficient[c].isZero()) touched.push_back(c);
         coefficient[c] += grid.cell_volume() * stencil.gradient(offset);
       });
-    }
+    };
+    for (int k : pocket) add_cell(k);
+    for (int k : floating[id]) add_cell(k);
     const int row = air.size();
     const Real negligible = 1e-9 * grid.cell_volume() / grid.dx;  // inner corners cancel to round-off
     bool on_fluid = false;

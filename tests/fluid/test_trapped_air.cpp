@@ -57,6 +57,21 @@ TYPED_TEST(TrappedAirTest, TrappedAirHoldsUpTheWaterOverIt) {
   EXPECT_EQ(fallen.summary["trapped_air"]["steps"].template get<long>(), 0);
 }
 
+// One particle falling through the pocket is a drop with corners of its own, light ones (a
+// particle's far tail) among them: as the pocket's boundary they would let it out at almost
+// no pressure (by 0.15 s the layer's pressure fell to 38 % in 2-D, 70 % in 3-D). Floating in
+// the pocket, the drop counts as inside it, and the layer stays the exact equilibrium.
+TYPED_TEST(TrappedAirTest, ADropInThePocketDoesNotLetItOut) {
+  constexpr int dim = TestFixture::dim;
+  std::vector<std::string> overrides = this->layer("incompressible");
+  overrides.push_back(dim == 2 ? R"(fluid.shapes=[{"type":"box","min":[0,0.25],"max":[1,0.5]},{"type":"box","min":[0.5,0.11],"max":[0.515,0.125]}])"
+                               : R"(fluid.shapes=[{"type":"box","min":[0,0.25,0],"max":[1,0.5,1]},{"type":"box","min":[0.5,0.05,0.5],"max":[0.56,0.12,0.56]}])");
+  const RunResult held = run_scene(this->scene(overrides), {});
+  ASSERT_TRUE(held.ok) << held.summary["status"];
+  EXPECT_EQ(held.summary["fluid_particles"].template get<long>(), (dim == 2 ? 64 * 16 : 16 * 4 * 16) + 1);
+  EXPECT_NEAR(this->metric(held, "p"), 1000 * 9.81 * (0.5 - 0.375), 1e-9 * 1000 * 9.81);
+}
+
 // The tank's own air touches its top layer of cells: open, no pocket, the same run.
 TYPED_TEST(TrappedAirTest, OpenAirIsNoPocket) {
   const RunResult off = run_scene(this->scene({}), {});
