@@ -71,6 +71,19 @@ void Simulation<dim>::build_operators() {
   last_.air_pocket_cells = trapped_air_.largest();
 }
 
+// Row entries on fluid corners that move with a solid (no fluid unknowns), spread over the
+// solid's velocity nodes by their N2 weights at the corner (stacked columns).
+template <int dim>
+std::vector<Triplet> entries_on_solid_nodes(const Grid<dim>& grid, const std::vector<typename FluidOperators<dim>::CornerEntry>& entries,
+                                            const std::vector<int>& solid_dof_of_node) {
+  std::vector<Triplet> on_solid;
+  for (const auto& entry : entries)
+    for_each_solid_weight(grid, grid.corners().multi_index(entry.corner), solid_dof_of_node, [&](int dof, Real weight) {
+      for (int a = 0; a < dim; ++a) on_solid.emplace_back(entry.row, dof * dim + a, weight * entry.coefficient[a]);
+    });
+  return on_solid;
+}
+
 // §5: the stacked velocities are the solid nodes' (v_s*, after Newton) then the fluid
 // corners' (v_f^n); the blocks are p_g (ghost matrix, G^sT with compliance S/dt and offset
 // S p_g^n/dt), p_f (G^fT), y (B) and h (H^f v_f - H^s v_s), each present only when the
@@ -139,12 +152,7 @@ void Simulation<dim>::assemble_pressure_system(Real dt) {
     layout_.pressure = system_.unknowns();
     const int block = system_.add_block("p_f", ops_.pressure_unknowns(), ops_.gradient_transpose, {}, {}, fluid_column_offset_);
     // Fluid corners inside a solid take the solid's velocity: their G^fT entries act on it.
-    std::vector<Triplet> on_solid;
-    for (const auto& entry : ops_.solid_corner_gradient)
-      for_each_solid_weight(grid_, grid_.corners().multi_index(entry.corner), solid_ops_.dof_of_node, [&](int dof, Real weight) {
-        for (int a = 0; a < dim; ++a) on_solid.emplace_back(entry.row, dof * dim + a, weight * entry.coefficient[a]);
-      });
-    system_.add_entries(block, on_solid);
+    system_.add_entries(block, entries_on_solid_nodes(grid_, ops_.solid_corner_gradient, solid_ops_.dof_of_node));
     if (!options_.walls_on_corners && !ops_.wall_faces.empty()) {
       layout_.wall = system_.unknowns();
       system_.add_block("y", int(ops_.wall_faces.size()), ops_.wall_rows, {}, {}, fluid_column_offset_);
@@ -157,12 +165,7 @@ void Simulation<dim>::assemble_pressure_system(Real dt) {
   if (trapped_air_.size() > 0) {  // rows -(d/dt of each pocket's volume), on fluid corners and solid nodes
     layout_.air = system_.unknowns();
     const int block = system_.add_block("p_a", trapped_air_.size(), trapped_air_.rows, {}, {}, fluid_column_offset_);
-    std::vector<Triplet> on_solid;
-    for (const auto& entry : trapped_air_.solid_corner_rows)
-      for_each_solid_weight(grid_, grid_.corners().multi_index(entry.corner), solid_ops_.dof_of_node, [&](int dof, Real weight) {
-        for (int a = 0; a < dim; ++a) on_solid.emplace_back(entry.row, dof * dim + a, weight * entry.coefficient[a]);
-      });
-    system_.add_entries(block, on_solid);
+    system_.add_entries(block, entries_on_solid_nodes(grid_, trapped_air_.solid_corner_rows, solid_ops_.dof_of_node));
   }
   system_.assemble(dt);
   last_.pressure_unknowns = system_.unknowns();
