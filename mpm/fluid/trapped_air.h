@@ -85,18 +85,18 @@ TrappedAir<dim> find_trapped_air(const Grid<dim>& grid, const FluidOperators<dim
   };
   std::vector<int> air_set, water_set;
   std::vector<std::vector<int>> air_sets = label_sets(is_air, air_set);
-  const std::vector<std::vector<int>> water_sets = label_sets(is_water, water_set);
   std::vector<char> is_pocket(air_sets.size());
   for (std::size_t id = 0; id < air_sets.size(); ++id) {
     bool open = false;
     for (int k : air_sets[id]) open = open || cells.multi_index(k)[up.axis] == top;
     is_pocket[id] = !open && int(air_sets[id].size()) >= smallest_air_pocket<dim>;
   }
+  if (std::find(is_pocket.begin(), is_pocket.end(), 1) == is_pocket.end()) return air;  // most steps: no water to label
   // Water that floats inside one pocket (a drop, spray: a set of water cells whose every
   // other neighbour is that pocket's air or a wall) is inside it: the pocket's boundary is
   // the surface of the water around it, and the drop's own rows keep the drop's volume.
   std::vector<std::vector<int>> floating(air_sets.size());
-  for (const auto& set : water_sets) {
+  for (const auto& set : label_sets(is_water, water_set)) {
     int pocket = -1;
     bool enclosed = true;
     for (int k : set)
@@ -128,10 +128,10 @@ TrappedAir<dim> find_trapped_air(const Grid<dim>& grid, const FluidOperators<dim
     for (int k : floating[id]) add_cell(k);
     const int row = air.size();
     const Real negligible = 1e-9 * grid.cell_volume() / grid.dx;  // inner corners cancel to round-off
-    bool on_fluid = false;
     std::sort(touched.begin(), touched.end());
     touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
-    const std::size_t rows_before = air.rows.size(), solid_before = air.solid_corner_rows.size();
+    std::vector<Triplet> rows;
+    std::vector<typename FluidOperators<dim>::CornerEntry> on_solid;
     for (int c : touched) {
       const Vec<dim> g = coefficient[c];
       coefficient[c].setZero();
@@ -141,18 +141,15 @@ TrappedAir<dim> find_trapped_air(const Grid<dim>& grid, const FluidOperators<dim
         // No flux through a slip wall: a corner on one is the pocket's boundary there only
         // along the wall (with wall faces its normal velocity is held on average only).
         for (int a = 0; a < dim; ++a)
-          if (!ops.wall_sides(dof, a)) air.rows.emplace_back(row, dof * dim + a, -g[a]);
-        on_fluid = true;
+          if (!ops.wall_sides(dof, a)) rows.emplace_back(row, dof * dim + a, -g[a]);
       } else if (moves_with_solid(c)) {
-        air.solid_corner_rows.push_back({row, c, -g});
+        on_solid.push_back({row, c, -g});
       }
     }
     touched.clear();
-    if (!on_fluid) {  // walled in by solids and walls alone: no water to hold back
-      air.rows.resize(rows_before);
-      air.solid_corner_rows.resize(solid_before);
-      continue;
-    }
+    if (rows.empty()) continue;  // walled in by solids and walls alone: no water to hold back
+    air.rows.insert(air.rows.end(), rows.begin(), rows.end());
+    air.solid_corner_rows.insert(air.solid_corner_rows.end(), on_solid.begin(), on_solid.end());
     air.pockets.push_back(std::move(pocket));
   }
   return air;
